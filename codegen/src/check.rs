@@ -1,0 +1,807 @@
+//! Checking: resolves names, folds constants, validates declarations and turns the `step`
+//! body into the real-valued [`ir`](crate::ir). Every rejection names the place and says what
+//! to write instead.
+
+use crate::diag::{Diag, Result};
+use crate::ir::*;
+use crate::qformat::{IntTy, QFormat, Rounding, WIDTHS};
+use crate::spec::ast::*;
+use crate::spec::parse::doc_lines;
+use proc_macro2::Span;
+use std::collections::{BTreeSet, HashMap};
+use syn::spanned::Spanned;
+use syn::{BinOp, Expr as SExpr, Lit, UnOp};
+
+/// Help text for any `/` or `%` in a spec.
+pub const DIVISION_HELP: &str = "qloop never emits division: a small controller has no divide \
+instruction and a software divide is slow and has a panicking path. Koren & Masory (1981) replace \
+K_c = K / K_m (000_b8cbacf29caa8fe2.txt, eq. 3) by an integrating loop that converges to the \
+quotient without dividing: E_c(i+1) = K - K_c(i)*K_m(i); K_c(i+1) = K_c(i) + C2*E_c(i+1) \
+(eqs. 12-13). Write the quotient as a state updated that way, or, for a constant divisor, \
+multiply by its reciprocal (`x * 0.25`, not `x / 4.0`)";
+
+/// Checks a parsed spec and builds the IR.
+pub fn check(ast: &SpecAst) -> Result<Program> {
+    Checker::default().run(ast)
+}
+
+#[derive(Default)]
+struct Checker {
+    consts: HashMap<String, (f64, Span)>,
+    constants: Vec<Constant>,
+    signals: Vec<Signal>,
+    /// Name → signal, for inputs, states, outputs and the `let`s in scope.
+    scope: Vec<HashMap<String, SigId>>,
+    /// Outputs definitely assigned at the current point.
+    assigned: BTreeSet<SigId>,
+}
+
+impl Checker {
+    fn run(mut self, ast: &SpecAst) -> Result<Program> {
+        let name = ast.name.to_string();
+        if name != name.to_lowercase() {
+            return Err(
+                Diag::new(ast.name.span(), "controller names are snake_case")
+                    .help(format!("write `controller {} {{ .. }}`", to_snake(&name))),
+            );
+        }
+        let mut period = None;
+        let mut rounding = None;
+        let mut word = None;
+        let mut body = None;
+        self.scope.push(HashMap::new());
+        self.consts
+            .insert("period".into(), (f64::NAN, Span::call_site()));
+        for item in &ast.items {
+            match item {
+                Item::Period { value, unit, span } => {
+                    dup(&period, *span, "period")?;
+                    let mut v = self.fold(value)?;
+                    match unit.as_ref().map(|u| u.value()) {
+                        None => {}
+                        Some(u) if u == "s" => {}
+                        Some(u) if u == "ms" => v *= 1e-3,
+                        Some(u) => {
+                            return Err(Diag::new(unit.span(), format!("unknown time unit `{u}`"))
+                                .help("write the period in \"s\" or \"ms\""))
+                        }
+                    }
+                    if !(v > 0.0 && v.is_finite()) {
+                        return Err(Diag::new(value.span(), "the period must be positive"));
+                    }
+                    period = Some((v, *span));
+                    self.consts.insert("period".into(), (v, *span));
+                }
+                Item::Rounding { mode } => {
+                    dup(&rounding, mode.span(), "rounding")?;
+                    let m = match mode.to_string().as_str() {
+                        "floor" => Rounding::Floor,
+                        "nearest" => Rounding::Nearest,
+                        other => {
+                            return Err(Diag::new(
+                                mode.span(),
+                                format!("unknown rounding `{other}`"),
+                            )
+                            .help("write `rounding floor;` (default) or `rounding nearest;`"))
+                        }
+                    };
+                    rounding = Some((m, mode.span()));
+                }
+                Item::Word { bits } => {
+                    dup(&word, bits.span(), "word")?;
+                    let b: u32 = bits.base10_parse().unwrap_or(0);
+                    if !WIDTHS.contains(&b) {
+                        return Err(Diag::new(bits.span(), "word width must be 8, 16, 32 or 64"));
+                    }
+                    word = Some((b, bits.span()));
+                }
+                Item::Constant(c) => self.constant(c)?,
+                Item::Signal(s) => self.signal(s, word.map_or(32, |w| w.0))?,
+                Item::Step(block) => {
+                    if body.is_some() {
+                        return Err(Diag::new(block.span(), "a controller has one `step` body"));
+                    }
+                    body = Some(block);
+                }
+                Item::Prove { tokens, span } => {
+                    if !tokens.is_empty() {
+                        return Err(Diag::new(
+                            *span,
+                            "properties in `prove { .. }` are not supported yet",
+                        )
+                        .help(
+                            "leave the block empty for now; the proofs issue defines its syntax",
+                        ));
+                    }
+                }
+            }
+        }
+        let (period, _) = period.ok_or_else(|| {
+            Diag::new(ast.name.span(), "missing sample period")
+                .help("add `period 0.1 \"s\";` inside the controller")
+        })?;
+        let block = body.ok_or_else(|| {
+            Diag::new(ast.name.span(), "missing `step { .. }` body")
+                .help("add the update law as `step { .. }`")
+        })?;
+        let body = self.block(&block.stmts)?;
+        for (i, s) in self.signals.iter().enumerate() {
+            if s.kind == SigKind::Output && !self.assigned.contains(&SigId(i)) {
+                return Err(Diag::new(
+                    s.span,
+                    format!(
+                        "output `{}` is not assigned on every path of `step`",
+                        s.name
+                    ),
+                )
+                .help("assign it after the `if`, or in both branches"));
+            }
+        }
+        Ok(Program {
+            name,
+            docs: ast.docs.clone(),
+            period,
+            rounding: rounding.map_or(Rounding::Floor, |r| r.0),
+            word: word.map_or(32, |w| w.0),
+            constants: self.constants,
+            signals: self.signals,
+            body,
+        })
+    }
+
+    fn define(&mut self, name: &syn::Ident) -> Result<()> {
+        let n = name.to_string();
+        if self.consts.contains_key(&n) || self.lookup(&n).is_some() {
+            return Err(Diag::new(name.span(), format!("`{n}` is already defined"))
+                .help("every constant, signal and `let` needs its own name"));
+        }
+        if n == "min" || n == "max" || n == "clamp" {
+            return Err(Diag::new(
+                name.span(),
+                format!("`{n}` is a built-in function"),
+            ));
+        }
+        Ok(())
+    }
+
+    fn lookup(&self, n: &str) -> Option<SigId> {
+        self.scope.iter().rev().find_map(|s| s.get(n).copied())
+    }
+
+    fn constant(&mut self, c: &ConstDecl) -> Result<()> {
+        self.define(&c.name)?;
+        let v = self.fold(&c.value)?;
+        let name = c.name.to_string();
+        self.consts.insert(name.clone(), (v, c.name.span()));
+        self.constants.push(Constant {
+            name,
+            is_param: c.is_param,
+            value: v,
+            unit: c.unit.as_ref().map(|u| u.value()),
+            docs: doc_lines(&c.attrs),
+        });
+        Ok(())
+    }
+
+    fn signal(&mut self, s: &SignalDecl, word: u32) -> Result<()> {
+        self.define(&s.name)?;
+        let name = s.name.to_string();
+        let (pin, lsb) = fmt_attrs(&s.attrs)?;
+        let range = match &s.range {
+            Some(r) => {
+                let (lo, hi) = (self.fold(&r.lo)?, self.fold(&r.hi)?);
+                if lo >= hi {
+                    return Err(Diag::new(r.span, format!("empty range [{lo}, {hi}]"))
+                        .help("write `[LO, HI]` with LO < HI"));
+                }
+                Some((lo, hi))
+            }
+            None => None,
+        };
+        let kind = match s.kind {
+            SignalKw::Input => SigKind::Input,
+            SignalKw::State => SigKind::State,
+            SignalKw::Output => SigKind::Output,
+        };
+        if range.is_none() && kind != SigKind::Output {
+            let what = if kind == SigKind::Input {
+                "input"
+            } else {
+                "state"
+            };
+            return Err(
+                Diag::new(s.name.span(), format!("{what} `{name}` has no range"))
+                    .label("range needed")
+                    .help(format!(
+                "qloop chooses formats and proves the absence of overflow from declared ranges: \
+                 write `{what} {name}: [LO, HI] \"unit\"{};`",
+                if kind == SigKind::State { " = INIT" } else { "" }
+            )),
+            );
+        }
+        let init = match (&s.init, kind) {
+            (Some(e), SigKind::State) => {
+                let v = self.fold(e)?;
+                let (lo, hi) = range.unwrap_or((v, v));
+                if v < lo || v > hi {
+                    return Err(Diag::new(
+                        e.span(),
+                        format!("initial value {v} is outside the range [{lo}, {hi}]"),
+                    ));
+                }
+                Some(v)
+            }
+            (None, SigKind::State) => {
+                return Err(Diag::new(
+                    s.name.span(),
+                    format!("state `{name}` has no initial value"),
+                )
+                .help(format!("write `state {name}: [LO, HI] = INIT;`")))
+            }
+            (Some(e), _) => return Err(Diag::new(e.span(), "only states take an initial value")),
+            (None, _) => None,
+        };
+        if let Some(p) = pin {
+            if !p.fits_fixed_crate() {
+                return Err(Diag::new(
+                    s.name.span(),
+                    format!(
+                        "{p} cannot cross the API: fraction bits must be in 0..={}",
+                        p.ty.bits
+                    ),
+                ));
+            }
+        }
+        let _ = word;
+        let id = SigId(self.signals.len());
+        self.signals.push(Signal {
+            name: name.clone(),
+            kind,
+            shape: Shape::Scalar,
+            range,
+            init,
+            unit: s.unit.as_ref().map(|u| u.value()),
+            pin,
+            lsb,
+            docs: doc_lines(&s.attrs),
+            span: s.name.span(),
+        });
+        if let Some(top) = self.scope.last_mut() {
+            top.insert(name, id);
+        }
+        Ok(())
+    }
+
+    // ---- constant folding -------------------------------------------------------------
+
+    fn fold(&self, e: &SExpr) -> Result<f64> {
+        match self.expr(e)? {
+            Expr::Const { value, .. } => Ok(value),
+            _ => Err(Diag::new(e.span(), "expected a constant expression")
+                .help("use literals, `param`s, `const`s and `period` with + - *")),
+        }
+    }
+
+    // ---- statements ------------------------------------------------------------------
+
+    fn block(&mut self, stmts: &[syn::Stmt]) -> Result<Vec<Stmt>> {
+        self.scope.push(HashMap::new());
+        let mut out = Vec::new();
+        for s in stmts {
+            self.stmt(s, &mut out)?;
+        }
+        self.scope.pop();
+        Ok(out)
+    }
+
+    fn stmt(&mut self, s: &syn::Stmt, out: &mut Vec<Stmt>) -> Result<()> {
+        match s {
+            syn::Stmt::Local(local) => {
+                let ident = match &local.pat {
+                    syn::Pat::Ident(p) if p.mutability.is_none() && p.subpat.is_none() => &p.ident,
+                    syn::Pat::Type(t) => {
+                        return Err(Diag::new(t.colon_token.span(), "`let` takes no type").help(
+                            "qloop chooses the format; pin one with `#[q(i32, 16)] let x = ..;`",
+                        ))
+                    }
+                    p => {
+                        return Err(Diag::new(p.span(), "expected `let NAME = EXPR;`").help(
+                            "`let` bindings are immutable; assign states or outputs instead",
+                        ))
+                    }
+                };
+                let init = local.init.as_ref().ok_or_else(|| {
+                    Diag::new(local.span(), "`let` needs a value: `let NAME = EXPR;`")
+                })?;
+                if let Some((e, _)) = &init.diverge {
+                    return Err(Diag::new(e.span(), "`let .. else` is not supported"));
+                }
+                let value = self.expr(&init.expr)?;
+                let (pin, lsb) = fmt_attrs(&local.attrs)?;
+                self.define(ident)?;
+                let id = SigId(self.signals.len());
+                self.signals.push(Signal {
+                    name: ident.to_string(),
+                    kind: SigKind::Local,
+                    shape: Shape::Scalar,
+                    range: None,
+                    init: None,
+                    unit: None,
+                    pin,
+                    lsb,
+                    docs: doc_lines(&local.attrs),
+                    span: ident.span(),
+                });
+                if let Some(top) = self.scope.last_mut() {
+                    top.insert(ident.to_string(), id);
+                }
+                out.push(Stmt::Assign {
+                    target: id,
+                    value,
+                    span: local.span(),
+                });
+                Ok(())
+            }
+            syn::Stmt::Expr(e, semi) => self.expr_stmt(e, semi.is_some(), out),
+            syn::Stmt::Item(i) => Err(Diag::new(i.span(), "items are not allowed inside `step`")),
+            syn::Stmt::Macro(m) => Err(Diag::new(m.span(), "macros are not allowed inside `step`")),
+        }
+    }
+
+    fn expr_stmt(&mut self, e: &SExpr, _semi: bool, out: &mut Vec<Stmt>) -> Result<()> {
+        match e {
+            SExpr::Assign(a) => {
+                let target = self.target(&a.left)?;
+                let value = self.expr(&a.right)?;
+                self.mark_assigned(target);
+                out.push(Stmt::Assign {
+                    target,
+                    value,
+                    span: a.span(),
+                });
+                Ok(())
+            }
+            SExpr::Binary(b) if matches!(b.op, BinOp::AddAssign(_) | BinOp::SubAssign(_)) => {
+                let target = self.target(&b.left)?;
+                if self.signals[target.0].kind == SigKind::Output
+                    && !self.assigned.contains(&target)
+                {
+                    return Err(Diag::new(
+                        b.left.span(),
+                        "output read before it is assigned",
+                    ));
+                }
+                let cur = Box::new(Expr::Var(target, b.left.span()));
+                let rhs = Box::new(self.expr(&b.right)?);
+                let value = match b.op {
+                    BinOp::AddAssign(_) => Expr::Add(cur, rhs),
+                    _ => Expr::Sub(cur, rhs),
+                };
+                out.push(Stmt::Assign {
+                    target,
+                    value,
+                    span: b.span(),
+                });
+                Ok(())
+            }
+            SExpr::Binary(b) if matches!(b.op, BinOp::DivAssign(_) | BinOp::RemAssign(_)) => {
+                Err(division(b.op.span()))
+            }
+            SExpr::Binary(b) if matches!(b.op, BinOp::MulAssign(_)) => {
+                Err(Diag::new(b.op.span(), "`*=` is not supported").help("write `x = x * y;`"))
+            }
+            SExpr::If(i) => {
+                let cond = self.cond(&i.cond)?;
+                let before = self.assigned.clone();
+                let then = self.block(&i.then_branch.stmts)?;
+                let after_then = std::mem::replace(&mut self.assigned, before);
+                let els = match &i.else_branch {
+                    None => Vec::new(),
+                    Some((_, e)) => match &**e {
+                        SExpr::Block(b) => self.block(&b.block.stmts)?,
+                        nested @ SExpr::If(_) => {
+                            let mut v = Vec::new();
+                            self.expr_stmt(nested, true, &mut v)?;
+                            v
+                        }
+                        other => {
+                            return Err(Diag::new(other.span(), "expected a block after `else`"))
+                        }
+                    },
+                };
+                self.assigned = after_then.intersection(&self.assigned).copied().collect();
+                out.push(Stmt::If { cond, then, els });
+                Ok(())
+            }
+            other => Err(Diag::new(other.span(), "unsupported statement").help(
+                "`step` holds `let` bindings, assignments (`=`, `+=`, `-=`) and `if`/`else`",
+            )),
+        }
+    }
+
+    fn mark_assigned(&mut self, id: SigId) {
+        if self.signals[id.0].kind == SigKind::Output {
+            self.assigned.insert(id);
+        }
+    }
+
+    fn target(&self, e: &SExpr) -> Result<SigId> {
+        let ident =
+            path_ident(e).ok_or_else(|| Diag::new(e.span(), "expected a state or output name"))?;
+        let n = ident.to_string();
+        match self.lookup(&n) {
+            Some(id) => match self.signals[id.0].kind {
+                SigKind::State | SigKind::Output => Ok(id),
+                SigKind::Input => Err(Diag::new(ident.span(), format!("input `{n}` is read-only"))),
+                SigKind::Local => Err(Diag::new(ident.span(), format!("`{n}` is a `let` binding"))
+                    .help("`let` bindings are immutable; declare a `state` to keep a value")),
+            },
+            None if self.consts.contains_key(&n) => {
+                Err(Diag::new(ident.span(), format!("`{n}` is a constant")))
+            }
+            None => Err(unknown(&ident)),
+        }
+    }
+
+    // ---- expressions -----------------------------------------------------------------
+
+    fn expr(&self, e: &SExpr) -> Result<Expr> {
+        let out = match e {
+            SExpr::Lit(l) => Expr::Const {
+                value: lit_value(&l.lit)?,
+                name: None,
+                span: l.span(),
+            },
+            SExpr::Paren(p) => self.expr(&p.expr)?,
+            SExpr::Group(g) => self.expr(&g.expr)?,
+            SExpr::Path(_) => {
+                let ident = path_ident(e)
+                    .ok_or_else(|| Diag::new(e.span(), "expected a name"))?;
+                let n = ident.to_string();
+                if let Some(id) = self.lookup(&n) {
+                    let s = &self.signals[id.0];
+                    if s.kind == SigKind::Output && !self.assigned.contains(&id) {
+                        return Err(Diag::new(
+                            ident.span(),
+                            format!("output `{n}` is read before it is assigned"),
+                        ));
+                    }
+                    Expr::Var(id, ident.span())
+                } else if let Some(&(v, _)) = self.consts.get(&n) {
+                    if v.is_nan() {
+                        return Err(Diag::new(ident.span(), "`period` is used before it is declared"));
+                    }
+                    Expr::Const {
+                        value: v,
+                        name: Some(n),
+                        span: ident.span(),
+                    }
+                } else {
+                    return Err(unknown(&ident));
+                }
+            }
+            SExpr::Unary(u) => match u.op {
+                UnOp::Neg(_) => fold1(Expr::Neg(Box::new(self.expr(&u.expr)?))),
+                _ => {
+                    return Err(Diag::new(u.op.span(), "unsupported unary operator")
+                        .help("only `-x` is an arithmetic unary operator; `!` belongs in conditions"))
+                }
+            },
+            SExpr::Binary(b) => {
+                let op_span = b.op.span();
+                let mk = |f: fn(Box<Expr>, Box<Expr>) -> Expr| -> Result<Expr> {
+                    Ok(fold1(f(Box::new(self.expr(&b.left)?), Box::new(self.expr(&b.right)?))))
+                };
+                match b.op {
+                    BinOp::Add(_) => mk(Expr::Add)?,
+                    BinOp::Sub(_) => mk(Expr::Sub)?,
+                    BinOp::Mul(_) => fold1(Expr::Mul(
+                        Box::new(self.expr(&b.left)?),
+                        Box::new(self.expr(&b.right)?),
+                        op_span,
+                    )),
+                    BinOp::Div(_) | BinOp::Rem(_) => return Err(division(op_span)),
+                    BinOp::Lt(_)
+                    | BinOp::Le(_)
+                    | BinOp::Gt(_)
+                    | BinOp::Ge(_)
+                    | BinOp::Eq(_)
+                    | BinOp::Ne(_)
+                    | BinOp::And(_)
+                    | BinOp::Or(_) => {
+                        return Err(Diag::new(op_span, "a comparison is not a number")
+                            .help("use comparisons in `if` conditions; `if c { a } else { b }` selects a value"))
+                    }
+                    _ => {
+                        return Err(Diag::new(op_span, "unsupported operator")
+                            .help("qloop chooses shifts and bit operations itself: write `+ - *`, `min`, `max`, `clamp`"))
+                    }
+                }
+            }
+            SExpr::Call(c) => {
+                let f = path_ident(&c.func)
+                    .ok_or_else(|| Diag::new(c.func.span(), "unknown function"))?;
+                let args: Vec<&SExpr> = c.args.iter().collect();
+                self.builtin(&f, &args, c.span())?
+            }
+            SExpr::MethodCall(m) => {
+                let mut args: Vec<&SExpr> = vec![&m.receiver];
+                args.extend(m.args.iter());
+                self.builtin(&m.method, &args, m.span())?
+            }
+            SExpr::If(i) => {
+                let cond = self.cond(&i.cond)?;
+                let a = block_value(&i.then_branch)?;
+                let b = match &i.else_branch {
+                    Some((_, e)) => match &**e {
+                        SExpr::Block(b) => block_value(&b.block)?,
+                        other => other,
+                    },
+                    None => {
+                        return Err(Diag::new(i.span(), "an `if` used as a value needs an `else`"))
+                    }
+                };
+                Expr::Select(Box::new(cond), Box::new(self.expr(a)?), Box::new(self.expr(b)?))
+            }
+            other => {
+                return Err(Diag::new(other.span(), "unsupported expression")
+                    .help("expressions use numbers, names, `+ - *`, unary `-`, `min`, `max`, `clamp` and `if .. else`"))
+            }
+        };
+        Ok(out)
+    }
+
+    fn builtin(&self, f: &syn::Ident, args: &[&SExpr], span: Span) -> Result<Expr> {
+        let n = f.to_string();
+        let want =
+            match n.as_str() {
+                "min" | "max" => 2,
+                "clamp" => 3,
+                _ => return Err(Diag::new(f.span(), format!("unknown function `{n}`")).help(
+                    "the built-in functions are `min(a, b)`, `max(a, b)` and `clamp(x, lo, hi)`",
+                )),
+            };
+        if args.len() != want {
+            return Err(Diag::new(span, format!("`{n}` takes {want} arguments")));
+        }
+        let a: Vec<Expr> = args.iter().map(|e| self.expr(e)).collect::<Result<_>>()?;
+        let mut it = a.into_iter().map(Box::new);
+        let (x, y) = (
+            it.next().unwrap_or_else(zero),
+            it.next().unwrap_or_else(zero),
+        );
+        Ok(match n.as_str() {
+            "min" => fold1(Expr::Min(x, y)),
+            "max" => fold1(Expr::Max(x, y)),
+            _ => {
+                let hi = it.next().unwrap_or_else(zero);
+                if let (Expr::Const { value: l, .. }, Expr::Const { value: h, .. }) = (&*y, &*hi) {
+                    if l > h {
+                        return Err(Diag::new(
+                            span,
+                            format!("clamp bounds are reversed: {l} > {h}"),
+                        ));
+                    }
+                }
+                // clamp(x, lo, hi) = min(max(x, lo), hi): total, never panics.
+                fold1(Expr::Min(Box::new(fold1(Expr::Max(x, y))), hi))
+            }
+        })
+    }
+
+    fn cond(&self, e: &SExpr) -> Result<Cond> {
+        match e {
+            SExpr::Paren(p) => self.cond(&p.expr),
+            SExpr::Unary(u) if matches!(u.op, UnOp::Not(_)) => {
+                Ok(Cond::Not(Box::new(self.cond(&u.expr)?)))
+            }
+            SExpr::Binary(b) => {
+                let op = match b.op {
+                    BinOp::And(_) => {
+                        return Ok(Cond::And(
+                            Box::new(self.cond(&b.left)?),
+                            Box::new(self.cond(&b.right)?),
+                        ))
+                    }
+                    BinOp::Or(_) => {
+                        return Ok(Cond::Or(
+                            Box::new(self.cond(&b.left)?),
+                            Box::new(self.cond(&b.right)?),
+                        ))
+                    }
+                    BinOp::Lt(_) => CmpOp::Lt,
+                    BinOp::Le(_) => CmpOp::Le,
+                    BinOp::Gt(_) => CmpOp::Gt,
+                    BinOp::Ge(_) => CmpOp::Ge,
+                    BinOp::Eq(_) => CmpOp::Eq,
+                    BinOp::Ne(_) => CmpOp::Ne,
+                    _ => {
+                        return Err(Diag::new(b.span(), "expected a comparison")
+                            .help("conditions compare numbers with < <= > >= == != and join them with && || !"))
+                    }
+                };
+                Ok(Cond::Cmp(op, self.expr(&b.left)?, self.expr(&b.right)?))
+            }
+            other => Err(Diag::new(other.span(), "expected a comparison").help(
+                "conditions compare numbers with < <= > >= == != and join them with && || !",
+            )),
+        }
+    }
+}
+
+fn zero() -> Box<Expr> {
+    Box::new(Expr::Const {
+        value: 0.0,
+        name: None,
+        span: Span::call_site(),
+    })
+}
+
+/// Folds an operator node whose operands are all constants.
+fn fold1(e: Expr) -> Expr {
+    let c = |x: &Expr| match x {
+        Expr::Const { value, .. } => Some(*value),
+        _ => None,
+    };
+    let (value, span) = match &e {
+        Expr::Neg(a) => match c(a) {
+            Some(v) => (-v, span_of(a)),
+            None => return e,
+        },
+        Expr::Add(a, b)
+        | Expr::Sub(a, b)
+        | Expr::Mul(a, b, _)
+        | Expr::Min(a, b)
+        | Expr::Max(a, b) => match (c(a), c(b)) {
+            (Some(x), Some(y)) => (
+                match &e {
+                    Expr::Add(..) => x + y,
+                    Expr::Sub(..) => x - y,
+                    Expr::Mul(..) => x * y,
+                    Expr::Min(..) => x.min(y),
+                    _ => x.max(y),
+                },
+                span_of(a),
+            ),
+            _ => return e,
+        },
+        _ => return e,
+    };
+    Expr::Const {
+        value,
+        name: None,
+        span,
+    }
+}
+
+fn span_of(e: &Expr) -> Span {
+    match e {
+        Expr::Const { span, .. } | Expr::Var(_, span) | Expr::Mul(_, _, span) => *span,
+        Expr::Neg(a) | Expr::Add(a, _) | Expr::Sub(a, _) | Expr::Min(a, _) | Expr::Max(a, _) => {
+            span_of(a)
+        }
+        Expr::Select(_, a, _) => span_of(a),
+    }
+}
+
+fn block_value(b: &syn::Block) -> Result<&SExpr> {
+    match b.stmts.as_slice() {
+        [syn::Stmt::Expr(e, None)] => Ok(e),
+        _ => Err(
+            Diag::new(b.span(), "a value `if` branch holds one expression")
+                .help("write `if c { a } else { b }`"),
+        ),
+    }
+}
+
+fn path_ident(e: &SExpr) -> Option<syn::Ident> {
+    match e {
+        SExpr::Path(p) if p.qself.is_none() => p.path.get_ident().cloned(),
+        _ => None,
+    }
+}
+
+fn unknown(ident: &syn::Ident) -> Diag {
+    Diag::new(ident.span(), format!("unknown name `{ident}`"))
+        .label("not declared")
+        .help("declare it as an `input`, `state`, `output`, `param` or `const`, or bind it with `let` before use")
+}
+
+fn division(span: Span) -> Diag {
+    Diag::new(span, "division is not allowed in a qloop spec")
+        .label("division")
+        .help(DIVISION_HELP)
+}
+
+fn dup<T>(prev: &Option<T>, span: Span, what: &str) -> Result<()> {
+    match prev {
+        Some(_) => Err(Diag::new(span, format!("`{what}` is declared twice"))),
+        None => Ok(()),
+    }
+}
+
+fn lit_value(l: &Lit) -> Result<f64> {
+    let v = match l {
+        Lit::Float(f) => f.base10_parse::<f64>().map_err(Diag::from)?,
+        Lit::Int(i) => i.base10_parse::<i64>().map_err(Diag::from)? as f64,
+        other => {
+            return Err(Diag::new(other.span(), "expected a number")
+                .help("units go after a declaration as a string: `input f: [0.0, 5.0] \"kN\";`"))
+        }
+    };
+    if !v.is_finite() {
+        return Err(Diag::new(l.span(), "number out of range"));
+    }
+    Ok(v)
+}
+
+/// Reads `#[q(i32, 20)]` and `#[lsb(1e-3)]` from a declaration's attributes.
+fn fmt_attrs(attrs: &[syn::Attribute]) -> Result<(Option<QFormat>, Option<f64>)> {
+    let mut pin = None;
+    let mut lsb = None;
+    for a in attrs {
+        if a.path().is_ident("doc") {
+            continue;
+        }
+        if a.path().is_ident("q") {
+            let args = a
+                .parse_args_with(
+                    syn::punctuated::Punctuated::<SExpr, syn::Token![,]>::parse_terminated,
+                )
+                .map_err(Diag::from)?;
+            let bad = || {
+                Diag::new(a.span(), "expected `#[q(TYPE, FRAC)]`, e.g. `#[q(i32, 20)]`")
+                    .help("TYPE is i8, i16, i32, i64, u8, u16, u32 or u64; FRAC is the number of fraction bits")
+            };
+            let v: Vec<&SExpr> = args.iter().collect();
+            let [t, f] = v.as_slice() else {
+                return Err(bad());
+            };
+            let ty = path_ident(t).ok_or_else(bad)?.to_string();
+            let (signed, bits) = ty.split_at(1);
+            let bits: u32 = bits.parse().map_err(|_| bad())?;
+            if !WIDTHS.contains(&bits) || !(signed == "i" || signed == "u") {
+                return Err(bad());
+            }
+            let frac = match f {
+                SExpr::Lit(syn::ExprLit {
+                    lit: Lit::Int(i), ..
+                }) => i.base10_parse::<i32>().map_err(|_| bad())?,
+                _ => return Err(bad()),
+            };
+            pin = Some(QFormat {
+                ty: IntTy {
+                    signed: signed == "i",
+                    bits,
+                },
+                frac,
+            });
+        } else if a.path().is_ident("lsb") {
+            let e: SExpr = a.parse_args().map_err(Diag::from)?;
+            let v = match &e {
+                SExpr::Lit(l) => lit_value(&l.lit)?,
+                _ => return Err(Diag::new(e.span(), "expected a number: `#[lsb(1e-3)]`")),
+            };
+            if v <= 0.0 {
+                return Err(Diag::new(e.span(), "the LSB must be positive"));
+            }
+            lsb = Some(v);
+        } else {
+            return Err(Diag::new(a.span(), "unknown attribute").help(
+                "declarations take `///` docs, `#[q(TYPE, FRAC)]` and `#[lsb(RESOLUTION)]`",
+            ));
+        }
+    }
+    Ok((pin, lsb))
+}
+
+fn to_snake(s: &str) -> String {
+    let mut out = String::new();
+    for (i, c) in s.chars().enumerate() {
+        if c.is_uppercase() && i > 0 {
+            out.push('_');
+        }
+        out.extend(c.to_lowercase());
+    }
+    out
+}

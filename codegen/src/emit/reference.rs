@@ -1,0 +1,227 @@
+//! Emits the f64 reference controller: the same spec in real arithmetic.
+//!
+//! Semantics match [`crate::interp::step_real`]: inputs clamped to their declared ranges,
+//! states (and ranged outputs) saturated to their declared ranges on every write, constants
+//! exact, no rounding. The plants issue runs it beside the fixed-point controller.
+
+use crate::ir::{Cond, Expr, Program, SigKind, Stmt};
+use crate::lower::Plan;
+use proc_macro2::{Literal, TokenStream};
+use quote::{format_ident, quote};
+
+/// The generated reference module for `plan`, named `<spec>_ref`.
+pub fn module(plan: &Plan) -> TokenStream {
+    let prog = &plan.prog;
+    let modname = format_ident!("{}_ref", prog.name);
+    let doc = super::module_doc(plan, "f64 reference controller (real arithmetic)");
+    let ids = |k: SigKind| prog.ids_of(k).collect::<Vec<_>>();
+    let (inputs, states, outputs) = (
+        ids(SigKind::Input),
+        ids(SigKind::State),
+        ids(SigKind::Output),
+    );
+    let name = |id: &crate::ir::SigId| format_ident!("{}", prog.sig(*id).name);
+    let fields = |v: &[crate::ir::SigId]| {
+        v.iter()
+            .map(|id| {
+                let n = name(id);
+                let d = super::sig_doc(plan, *id);
+                quote! { #[doc = #d] pub #n: f64, }
+            })
+            .collect::<Vec<_>>()
+    };
+    let (fi, fo, fs) = (fields(&inputs), fields(&outputs), fields(&states));
+    let raw_fields = states.iter().map(|id| {
+        let n = name(id);
+        quote! { #n: f64, }
+    });
+    let inits = states.iter().map(|id| {
+        let n = name(id);
+        let v = f(prog.sig(*id).init.unwrap_or(0.0));
+        quote! { #n: #v, }
+    });
+    let getters = states.iter().map(|id| {
+        let n = name(id);
+        quote! { #n: self.#n, }
+    });
+    let setters = states.iter().map(|id| {
+        let n = name(id);
+        let v = sat(prog, *id, quote! { s.#n });
+        quote! { self.#n = #v; }
+    });
+    let read_inputs = inputs.iter().map(|id| {
+        let n = name(id);
+        let v = sat(prog, *id, quote! { inputs.#n });
+        quote! { let #n: f64 = #v; }
+    });
+    let load = states.iter().map(|id| {
+        let n = name(id);
+        quote! { let mut #n: f64 = self.#n; }
+    });
+    let decl_out = outputs.iter().map(|id| {
+        let n = name(id);
+        quote! { let mut #n: f64 = 0.0; }
+    });
+    let body = block(prog, &prog.body);
+    let save = states.iter().map(|id| {
+        let n = name(id);
+        quote! { self.#n = #n; }
+    });
+    let ret = outputs.iter().map(|id| {
+        let n = name(id);
+        quote! { #n, }
+    });
+    quote! {
+        #[doc = #doc]
+        pub mod #modname {
+            /// Inputs of one step (clamped to their declared ranges on entry).
+            #[derive(Clone, Copy, Debug, Default, PartialEq)]
+            pub struct Inputs { #(#fi)* }
+            /// Outputs of one step.
+            #[derive(Clone, Copy, Debug, Default, PartialEq)]
+            pub struct Outputs { #(#fo)* }
+            /// A snapshot of the states.
+            #[derive(Clone, Copy, Debug, Default, PartialEq)]
+            pub struct States { #(#fs)* }
+            /// The reference controller.
+            #[derive(Clone, Copy, Debug, PartialEq)]
+            pub struct Reference { #(#raw_fields)* }
+            impl Default for Reference {
+                fn default() -> Self {
+                    Self::new()
+                }
+            }
+            impl Reference {
+                /// The controller in its declared initial state.
+                pub const fn new() -> Self {
+                    Reference { #(#inits)* }
+                }
+                /// The current states.
+                pub fn states(&self) -> States {
+                    States { #(#getters)* }
+                }
+                /// Overwrites the states, saturating each to its declared range.
+                pub fn set_states(&mut self, s: States) {
+                    #(#setters)*
+                }
+                /// One control period in real arithmetic.
+                #[allow(unused_mut, unused_assignments, clippy::needless_late_init)]
+                pub fn step(&mut self, inputs: Inputs) -> Outputs {
+                    #(#read_inputs)*
+                    #(#load)*
+                    #(#decl_out)*
+                    #body
+                    #(#save)*
+                    Outputs { #(#ret)* }
+                }
+            }
+        }
+    }
+}
+
+fn f(v: f64) -> TokenStream {
+    let l = Literal::f64_suffixed(v.abs());
+    if v.is_sign_negative() && v != 0.0 {
+        quote! { (-#l) }
+    } else {
+        quote! { #l }
+    }
+}
+
+fn sat(prog: &Program, id: crate::ir::SigId, e: TokenStream) -> TokenStream {
+    match prog.sig(id).range {
+        Some((lo, hi)) => {
+            let (lo, hi) = (f(lo), f(hi));
+            quote! { (#e).max(#lo).min(#hi) }
+        }
+        None => e,
+    }
+}
+
+fn block(prog: &Program, stmts: &[Stmt]) -> TokenStream {
+    let parts = stmts.iter().map(|s| match s {
+        Stmt::Assign { target, value, .. } => {
+            let sig = prog.sig(*target);
+            let n = format_ident!("{}", sig.name);
+            let v = expr(prog, value);
+            if sig.kind == SigKind::Local {
+                quote! { let #n: f64 = #v; }
+            } else {
+                let v = sat(prog, *target, v);
+                quote! { #n = #v; }
+            }
+        }
+        Stmt::If { cond: c, then, els } => {
+            let c = cond(prog, c);
+            let t = block(prog, then);
+            let e = block(prog, els);
+            quote! { if #c { #t } else { #e } }
+        }
+    });
+    quote! { #(#parts)* }
+}
+
+fn expr(prog: &Program, e: &Expr) -> TokenStream {
+    let x = |e: &Expr| expr(prog, e);
+    match e {
+        Expr::Const { value, .. } => {
+            let v = f(*value);
+            quote! { (#v) }
+        }
+        Expr::Var(id, _) => {
+            let n = format_ident!("{}", prog.sig(*id).name);
+            quote! { #n }
+        }
+        Expr::Neg(a) => {
+            let a = x(a);
+            quote! { (-#a) }
+        }
+        Expr::Add(a, b) => {
+            let (a, b) = (x(a), x(b));
+            quote! { (#a + #b) }
+        }
+        Expr::Sub(a, b) => {
+            let (a, b) = (x(a), x(b));
+            quote! { (#a - #b) }
+        }
+        Expr::Mul(a, b, _) => {
+            let (a, b) = (x(a), x(b));
+            quote! { (#a * #b) }
+        }
+        Expr::Min(a, b) => {
+            let (a, b) = (x(a), x(b));
+            quote! { (#a).min(#b) }
+        }
+        Expr::Max(a, b) => {
+            let (a, b) = (x(a), x(b));
+            quote! { (#a).max(#b) }
+        }
+        Expr::Select(c, a, b) => {
+            // Evaluate the condition and both arms (as the plan does), then select.
+            let (c, a, b) = (cond(prog, c), x(a), x(b));
+            quote! { { let c: bool = #c; let a: f64 = #a; let b: f64 = #b; if c { a } else { b } } }
+        }
+    }
+}
+
+fn cond(prog: &Program, c: &Cond) -> TokenStream {
+    match c {
+        Cond::Cmp(op, a, b) => {
+            let (a, b) = (expr(prog, a), expr(prog, b));
+            let op: TokenStream = op.symbol().parse().unwrap_or_default();
+            quote! { (#a #op #b) }
+        }
+        Cond::And(a, b) => {
+            let (a, b) = (cond(prog, a), cond(prog, b));
+            quote! { (#a & #b) }
+        }
+        Cond::Or(a, b) => {
+            let (a, b) = (cond(prog, a), cond(prog, b));
+            quote! { (#a | #b) }
+        }
+        Cond::Not(a) => {
+            let a = cond(prog, a);
+            quote! { (!#a) }
+        }
+    }
+}

@@ -1,0 +1,281 @@
+//! Emits the fixed-point controller as a `#![no_std]`-compatible Rust module.
+//!
+//! `step` works on raw integers only: explicit casts, shifts, adds, widening multiplies,
+//! compares. No division, no floating point, no indexing, no `unwrap`; every operation's range
+//! is proved, so in release builds there is no panicking path, and in debug builds an
+//! overflow check that fired would expose a wrong proof. `fixed` crate types carry the values
+//! across the API.
+
+use crate::ir::{SigId, SigKind};
+use crate::lower::lir::{LStmt, Op, ValId};
+use crate::lower::Plan;
+use crate::qformat::{IntTy, QFormat};
+use proc_macro2::{Ident, Literal, Span, TokenStream};
+use quote::{format_ident, quote};
+
+/// The generated module for `plan`.
+pub fn module(plan: &Plan) -> TokenStream {
+    let prog = &plan.prog;
+    let modname = format_ident!("{}", prog.name);
+    let doc = super::module_doc(plan, "fixed-point controller");
+    let kinds = |k: SigKind| prog.ids_of(k).collect::<Vec<_>>();
+    let (inputs, states, outputs) = (
+        kinds(SigKind::Input),
+        kinds(SigKind::State),
+        kinds(SigKind::Output),
+    );
+
+    let field = |id: &SigId| {
+        let s = prog.sig(*id);
+        let name = format_ident!("{}", s.name);
+        let ty = fixed_ty(plan.format(*id));
+        let d = super::sig_doc(plan, *id);
+        quote! { #[doc = #d] pub #name: #ty, }
+    };
+    let in_fields = inputs.iter().map(field);
+    let out_fields = outputs.iter().map(field);
+    let st_fields = states.iter().map(field);
+
+    let raw_fields = states.iter().map(|id| {
+        let name = format_ident!("{}", prog.sig(*id).name);
+        let ty = int_ty(plan.format(*id).ty);
+        quote! { #name: #ty, }
+    });
+    let raw_inits = states.iter().map(|id| {
+        let name = format_ident!("{}", prog.sig(*id).name);
+        let lit = lit(plan.raw_init(*id), plan.format(*id).ty);
+        quote! { #name: #lit, }
+    });
+    let getters = states.iter().map(|id| {
+        let name = format_ident!("{}", prog.sig(*id).name);
+        let ty = fixed_ty(plan.format(*id));
+        quote! { #name: <#ty>::from_bits(self.#name), }
+    });
+    let setters = states.iter().map(|id| {
+        let name = format_ident!("{}", prog.sig(*id).name);
+        let q = plan.format(*id);
+        let (lo, hi) = plan.raw_bounds(*id).unwrap_or((q.ty.min(), q.ty.max()));
+        let (lo, hi) = (lit(lo, q.ty), lit(hi, q.ty));
+        quote! { self.#name = ::core::cmp::max(::core::cmp::min(s.#name.to_bits(), #hi), #lo); }
+    });
+
+    let load_states = states.iter().map(|id| {
+        let name = format_ident!("{}", prog.sig(*id).name);
+        let ty = int_ty(plan.format(*id).ty);
+        quote! { let mut #name: #ty = self.#name; }
+    });
+    let decl_outputs = outputs.iter().map(|id| {
+        let name = format_ident!("{}", prog.sig(*id).name);
+        let ty = int_ty(plan.format(*id).ty);
+        quote! { let mut #name: #ty = 0; }
+    });
+    let body = block(plan, &plan.body);
+    let save_states = states.iter().map(|id| {
+        let name = format_ident!("{}", prog.sig(*id).name);
+        quote! { self.#name = #name; }
+    });
+    let ret = outputs.iter().map(|id| {
+        let name = format_ident!("{}", prog.sig(*id).name);
+        let ty = fixed_ty(plan.format(*id));
+        quote! { #name: <#ty>::from_bits(#name), }
+    });
+    let period_us = Literal::u64_suffixed((prog.period * 1e6).round() as u64);
+
+    quote! {
+        #[doc = #doc]
+        pub mod #modname {
+            /// Inputs of one step. Each is clamped to its declared range on entry.
+            #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+            pub struct Inputs { #(#in_fields)* }
+
+            /// Outputs of one step.
+            #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+            pub struct Outputs { #(#out_fields)* }
+
+            /// A snapshot of the controller's states.
+            #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+            pub struct States { #(#st_fields)* }
+
+            /// The controller: its states as raw integers.
+            #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+            pub struct Controller { #(#raw_fields)* }
+
+            impl Default for Controller {
+                fn default() -> Self {
+                    Self::new()
+                }
+            }
+
+            impl Controller {
+                /// Sample period in microseconds.
+                pub const PERIOD_US: u64 = #period_us;
+
+                /// The controller in its declared initial state.
+                pub const fn new() -> Self {
+                    Controller { #(#raw_inits)* }
+                }
+
+                /// The current states.
+                pub fn states(&self) -> States {
+                    States { #(#getters)* }
+                }
+
+                /// Overwrites the states, saturating each to its declared range.
+                pub fn set_states(&mut self, s: States) {
+                    #(#setters)*
+                }
+
+                /// One control period: reads the inputs, updates the states, returns the outputs.
+                #[allow(unused_mut, unused_assignments, unused_parens, clippy::let_and_return,
+                        clippy::unnecessary_cast, clippy::identity_op, clippy::needless_late_init,
+                        clippy::nonminimal_bool, clippy::double_parens)]
+                pub fn step(&mut self, inputs: Inputs) -> Outputs {
+                    #(#load_states)*
+                    #(#decl_outputs)*
+                    #body
+                    #(#save_states)*
+                    Outputs { #(#ret)* }
+                }
+            }
+        }
+    }
+}
+
+fn block(plan: &Plan, stmts: &[LStmt]) -> TokenStream {
+    let parts = stmts.iter().map(|s| match s {
+        LStmt::Def(id) => {
+            let name = val_name(plan, *id);
+            let v = plan.val(*id);
+            let e = op_expr(plan, *id);
+            if v.boolean {
+                quote! { let #name: bool = #e; }
+            } else {
+                let ty = int_ty(v.ty);
+                quote! { let #name: #ty = #e; }
+            }
+        }
+        LStmt::Store(sig, id) => {
+            let target = format_ident!("{}", plan.prog.sig(*sig).name);
+            let v = val_name(plan, *id);
+            quote! { #target = #v; }
+        }
+        LStmt::If(c, t, e) => {
+            let c = val_name(plan, *c);
+            let t = block(plan, t);
+            if e.is_empty() {
+                quote! { if #c { #t } }
+            } else {
+                let e = block(plan, e);
+                quote! { if #c { #t } else { #e } }
+            }
+        }
+    });
+    quote! { #(#parts)* }
+}
+
+fn op_expr(plan: &Plan, id: ValId) -> TokenStream {
+    let v = plan.val(id);
+    let n = |x: &ValId| val_name(plan, *x);
+    match &v.op {
+        Op::Input(s) => {
+            let f = format_ident!("{}", plan.prog.sig(*s).name);
+            quote! { inputs.#f.to_bits() }
+        }
+        Op::Load(s) => {
+            let f = format_ident!("{}", plan.prog.sig(*s).name);
+            quote! { #f }
+        }
+        Op::Const(c) => lit(*c, v.ty),
+        Op::Cast(a) => {
+            let (a, ty) = (n(a), int_ty(v.ty));
+            quote! { #a as #ty }
+        }
+        Op::Add(a, b) => {
+            let (a, b) = (n(a), n(b));
+            quote! { #a + #b }
+        }
+        Op::Sub(a, b) => {
+            let (a, b) = (n(a), n(b));
+            quote! { #a - #b }
+        }
+        Op::Neg(a) => {
+            let a = n(a);
+            quote! { -#a }
+        }
+        Op::Shl(a, k) => {
+            let (a, k) = (n(a), Literal::u32_unsuffixed(*k));
+            quote! { #a << #k }
+        }
+        Op::Shr(a, k) => {
+            let (a, k) = (n(a), Literal::u32_unsuffixed(*k));
+            quote! { #a >> #k }
+        }
+        Op::Mul(a, b) => {
+            let (a, b) = (n(a), n(b));
+            quote! { #a * #b }
+        }
+        Op::Min(a, b) => {
+            let (a, b) = (n(a), n(b));
+            quote! { ::core::cmp::min(#a, #b) }
+        }
+        Op::Max(a, b) => {
+            let (a, b) = (n(a), n(b));
+            quote! { ::core::cmp::max(#a, #b) }
+        }
+        Op::Select(c, a, b) => {
+            let (c, a, b) = (n(c), n(a), n(b));
+            quote! { if #c { #a } else { #b } }
+        }
+        Op::Cmp(op, a, b) => {
+            let (a, b) = (n(a), n(b));
+            let op: TokenStream = op.symbol().parse().unwrap_or_default();
+            quote! { #a #op #b }
+        }
+        Op::And(a, b) => {
+            let (a, b) = (n(a), n(b));
+            quote! { #a && #b }
+        }
+        Op::Or(a, b) => {
+            let (a, b) = (n(a), n(b));
+            quote! { #a || #b }
+        }
+        Op::Not(a) => {
+            let a = n(a);
+            quote! { !#a }
+        }
+    }
+}
+
+/// The emitted name of a value: the user's `let` name, or `_N`.
+pub fn val_name(plan: &Plan, id: ValId) -> Ident {
+    match &plan.val(id).name {
+        Some(n) => Ident::new(n, Span::call_site()),
+        None => format_ident!("_{}", id.0),
+    }
+}
+
+/// `i32`, `u16`, ...
+pub fn int_ty(t: IntTy) -> Ident {
+    Ident::new(&t.rust_name(), Span::call_site())
+}
+
+/// `::fixed::FixedI32<::fixed::types::extra::U20>` for `Q(i32, 20)`.
+pub fn fixed_ty(q: QFormat) -> TokenStream {
+    let base = format_ident!("Fixed{}{}", if q.ty.signed { "I" } else { "U" }, q.ty.bits);
+    let frac = format_ident!("U{}", q.frac.max(0) as u32);
+    quote! { ::fixed::#base<::fixed::types::extra::#frac> }
+}
+
+/// An integer literal of type `ty` (`T::MIN` where the literal itself would overflow).
+pub fn lit(v: i128, ty: IntTy) -> TokenStream {
+    if ty.signed && v == ty.min() {
+        let t = int_ty(ty);
+        return quote! { #t::MIN };
+    }
+    let l = Literal::i128_unsuffixed(v.abs());
+    if v < 0 {
+        quote! { -#l }
+    } else {
+        quote! { #l }
+    }
+}

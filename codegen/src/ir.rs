@@ -1,0 +1,221 @@
+//! The checked intermediate representation: names resolved, constants folded, real-valued.
+//!
+//! The IR says *what* a controller computes, in real arithmetic; the fixed-point plan
+//! ([`crate::lower`]) says *how*. Signals live in one table indexed by [`SigId`]; every signal
+//! has a [`Shape`], so vector and matrix states (RLS estimators) extend the table, not the
+//! statement forms, and table look-ups become one more [`Expr`] variant.
+
+use crate::qformat::{QFormat, Rounding};
+use proc_macro2::Span;
+
+/// Index into [`Program::signals`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct SigId(pub usize);
+
+/// A checked controller.
+#[derive(Clone, Debug)]
+pub struct Program {
+    /// Name, snake_case.
+    pub name: String,
+    /// Doc lines.
+    pub docs: Vec<String>,
+    /// Sample period in seconds.
+    pub period: f64,
+    /// Rounding for every right shift that drops fraction bits.
+    pub rounding: Rounding,
+    /// Default storage word width.
+    pub word: u32,
+    /// Folded `param` and `const` values, in declaration order.
+    pub constants: Vec<Constant>,
+    /// Inputs, states, outputs and `let` locals.
+    pub signals: Vec<Signal>,
+    /// The update body.
+    pub body: Vec<Stmt>,
+}
+
+impl Program {
+    /// The signal with id `id`.
+    pub fn sig(&self, id: SigId) -> &Signal {
+        &self.signals[id.0]
+    }
+
+    /// Ids of all signals of one kind, in declaration order.
+    pub fn ids_of(&self, kind: SigKind) -> impl Iterator<Item = SigId> + '_ {
+        self.signals
+            .iter()
+            .enumerate()
+            .filter(move |(_, s)| s.kind == kind)
+            .map(|(i, _)| SigId(i))
+    }
+}
+
+/// A named compile-time value.
+#[derive(Clone, Debug)]
+pub struct Constant {
+    /// Name.
+    pub name: String,
+    /// `param` (tunable) rather than `const`.
+    pub is_param: bool,
+    /// Folded value.
+    pub value: f64,
+    /// Unit.
+    pub unit: Option<String>,
+    /// Doc lines.
+    pub docs: Vec<String>,
+}
+
+/// Role of a signal.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SigKind {
+    /// Read once per step, clamped to its range on entry.
+    Input,
+    /// Persists across steps; saturates to its range on every write.
+    State,
+    /// Returned by `step`.
+    Output,
+    /// A `let` binding inside `step`.
+    Local,
+}
+
+/// Shape of a signal's value. Only scalars exist today; vectors and matrices (RLS
+/// covariance, regressors) are added here with element-wise formats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Shape {
+    /// One value.
+    Scalar,
+}
+
+/// One signal.
+#[derive(Clone, Debug)]
+pub struct Signal {
+    /// Name as written.
+    pub name: String,
+    /// Role.
+    pub kind: SigKind,
+    /// Shape.
+    pub shape: Shape,
+    /// Declared physical range (inputs, states; optional for outputs; none for locals).
+    pub range: Option<(f64, f64)>,
+    /// Initial value (states).
+    pub init: Option<f64>,
+    /// Unit text.
+    pub unit: Option<String>,
+    /// User-pinned format, `#[q(i32, 20)]`.
+    pub pin: Option<QFormat>,
+    /// Requested resolution, `#[lsb(1e-3)]`: the format must have LSB ≤ this.
+    pub lsb: Option<f64>,
+    /// Doc lines.
+    pub docs: Vec<String>,
+    /// Declaration site.
+    pub span: Span,
+}
+
+/// A statement of the body.
+#[derive(Clone, Debug)]
+pub enum Stmt {
+    /// `target = value`. For states the value is rounded and saturated to the state's range;
+    /// for locals this is the single `let` definition.
+    Assign {
+        /// Written signal.
+        target: SigId,
+        /// New value.
+        value: Expr,
+        /// Statement site.
+        span: Span,
+    },
+    /// `if cond { then } else { els }`.
+    If {
+        /// Condition.
+        cond: Cond,
+        /// Then branch.
+        then: Vec<Stmt>,
+        /// Else branch (possibly empty).
+        els: Vec<Stmt>,
+    },
+}
+
+/// A real-valued expression.
+#[derive(Clone, Debug)]
+pub enum Expr {
+    /// A folded constant; `name` if it came from a `param`/`const`.
+    Const {
+        /// Value.
+        value: f64,
+        /// Source name, if any.
+        name: Option<String>,
+        /// Site.
+        span: Span,
+    },
+    /// Read of a signal's current value.
+    Var(SigId, Span),
+    /// `-a`
+    Neg(Box<Expr>),
+    /// `a + b`
+    Add(Box<Expr>, Box<Expr>),
+    /// `a - b`
+    Sub(Box<Expr>, Box<Expr>),
+    /// `a * b`
+    Mul(Box<Expr>, Box<Expr>, Span),
+    /// `min(a, b)`
+    Min(Box<Expr>, Box<Expr>),
+    /// `max(a, b)`
+    Max(Box<Expr>, Box<Expr>),
+    /// `if c { a } else { b }` as an expression.
+    Select(Box<Cond>, Box<Expr>, Box<Expr>),
+}
+
+/// Comparison operator.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CmpOp {
+    /// `<`
+    Lt,
+    /// `<=`
+    Le,
+    /// `>`
+    Gt,
+    /// `>=`
+    Ge,
+    /// `==`
+    Eq,
+    /// `!=`
+    Ne,
+}
+
+impl CmpOp {
+    /// Evaluates the comparison on any ordered values.
+    pub fn eval<T: PartialOrd>(self, a: T, b: T) -> bool {
+        match self {
+            CmpOp::Lt => a < b,
+            CmpOp::Le => a <= b,
+            CmpOp::Gt => a > b,
+            CmpOp::Ge => a >= b,
+            CmpOp::Eq => a == b,
+            CmpOp::Ne => a != b,
+        }
+    }
+
+    /// Rust spelling.
+    pub fn symbol(self) -> &'static str {
+        match self {
+            CmpOp::Lt => "<",
+            CmpOp::Le => "<=",
+            CmpOp::Gt => ">",
+            CmpOp::Ge => ">=",
+            CmpOp::Eq => "==",
+            CmpOp::Ne => "!=",
+        }
+    }
+}
+
+/// A boolean condition.
+#[derive(Clone, Debug)]
+pub enum Cond {
+    /// `a OP b`
+    Cmp(CmpOp, Expr, Expr),
+    /// `a && b`
+    And(Box<Cond>, Box<Cond>),
+    /// `a || b`
+    Or(Box<Cond>, Box<Cond>),
+    /// `!a`
+    Not(Box<Cond>),
+}

@@ -1,0 +1,86 @@
+//! The fixed-point plan ("LIR"): straight-line integer operations with structured `if`s.
+//!
+//! Every value has a machine type, a binary point (`frac`), the exact interval of raw values
+//! it can take (proved by interval analysis from the declared ranges), and a bound on its
+//! error against real arithmetic. The Rust emitter, the interpreter and, later, the C and
+//! SMT emitters all read this one plan, so they agree bit for bit by construction.
+
+use crate::ir::{CmpOp, SigId};
+use crate::qformat::IntTy;
+
+/// Index into [`Plan::vals`](super::Plan::vals).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ValId(pub usize);
+
+/// One SSA value.
+#[derive(Clone, Debug)]
+pub struct Val {
+    /// The operation producing it.
+    pub op: Op,
+    /// Working type (signed for arithmetic; a storage type only for [`Op::Cast`] to storage).
+    pub ty: IntTy,
+    /// Fraction bits of the raw value.
+    pub frac: i32,
+    /// Smallest raw value (proved).
+    pub lo: i128,
+    /// Largest raw value (proved).
+    pub hi: i128,
+    /// Bound on |value − real-arithmetic value| in physical units, for one step started from
+    /// the same state and inputs, assuming the same branch decisions.
+    pub err: f64,
+    /// Source name, for `let` bindings and clamped inputs.
+    pub name: Option<String>,
+    /// A boolean (comparison) value; `ty`, `frac`, `lo`, `hi` are then meaningless.
+    pub boolean: bool,
+}
+
+/// An integer operation. Operand types equal the result type except where noted.
+#[derive(Clone, Debug)]
+pub enum Op {
+    /// The raw bits of an input, in its storage type.
+    Input(SigId),
+    /// The current raw value of a state or output variable, in its storage type.
+    Load(SigId),
+    /// An integer constant.
+    Const(i128),
+    /// Conversion from the operand's type to this value's type; the range analysis proves
+    /// that it never truncates.
+    Cast(ValId),
+    /// `a + b`
+    Add(ValId, ValId),
+    /// `a - b`
+    Sub(ValId, ValId),
+    /// `-a`
+    Neg(ValId),
+    /// `a << k` (exact: multiplies by 2^k).
+    Shl(ValId, u32),
+    /// `a >> k`, arithmetic: floor(a / 2^k).
+    Shr(ValId, u32),
+    /// `a * b`, both operands already widened to the product type.
+    Mul(ValId, ValId),
+    /// `min(a, b)`
+    Min(ValId, ValId),
+    /// `max(a, b)`
+    Max(ValId, ValId),
+    /// `if c { a } else { b }`
+    Select(ValId, ValId, ValId),
+    /// Comparison, boolean result; operands share type and frac.
+    Cmp(CmpOp, ValId, ValId),
+    /// Boolean and.
+    And(ValId, ValId),
+    /// Boolean or.
+    Or(ValId, ValId),
+    /// Boolean not.
+    Not(ValId),
+}
+
+/// A statement of the plan.
+#[derive(Clone, Debug)]
+pub enum LStmt {
+    /// Compute a value.
+    Def(ValId),
+    /// Write a value (already rounded, saturated and cast to storage) to a state or output.
+    Store(SigId, ValId),
+    /// Branch on a boolean value.
+    If(ValId, Vec<LStmt>, Vec<LStmt>),
+}

@@ -1,0 +1,1072 @@
+//! Lowering: real-valued IR → fixed-point plan.
+//!
+//! The rules (see the README's "Fixed-point semantics"):
+//! * Inputs, states and outputs get a storage [`QFormat`] from their declared range (and
+//!   `#[lsb]` request or `#[q]` pin); unranged outputs from the range analysis.
+//! * Every intermediate is exact where it can be: `a ± b` aligns binary points by left
+//!   shifts, `a · b` uses a widening multiply whose result has `fa + fb` fraction bits. The
+//!   working type is the narrowest signed type (at least the target's native word) that holds
+//!   the proved raw interval, so nothing overflows. Only when an exact intermediate would need
+//!   more than 64 bits are fraction bits dropped, with explicit rounding.
+//! * Multiplication by a constant is a shift-add network ([`shift_add`]) unless the target's
+//!   multiplier is cheaper; a power of two costs nothing beyond moving the binary point.
+//! * Rounding happens only where fraction bits are dropped: on stores to states and outputs,
+//!   at pinned `let`s and where an intermediate would exceed 64 bits. Floor is one arithmetic
+//!   shift; nearest adds half an LSB first.
+//! * Stores saturate to the declared range (quantised inward); clamps the analysis proves
+//!   unnecessary are not emitted. Inputs are clamped to their declared range on entry.
+
+pub mod lir;
+#[path = "/tmp/sa_stub.rs"]
+pub mod shift_add;
+pub mod target;
+
+use crate::diag::{Diag, Result};
+use crate::ir::*;
+use crate::qformat::{pow2, IntTy, QFormat, Rounding, WIDTHS};
+use lir::*;
+use proc_macro2::Span;
+use std::collections::HashMap;
+use target::Target;
+
+/// A compiled controller: the program, its formats and the integer plan.
+#[derive(Clone, Debug)]
+pub struct Plan {
+    /// The checked program.
+    pub prog: Program,
+    /// The target the cost model used.
+    pub target: Target,
+    /// Storage format of each input, state and output (indexed by [`SigId`]); `None` for locals.
+    pub formats: Vec<Option<QFormat>>,
+    /// All values.
+    pub vals: Vec<Val>,
+    /// The step body.
+    pub body: Vec<LStmt>,
+    /// What the analysis found for each signal (indexed by [`SigId`]).
+    pub summary: Vec<SigSummary>,
+    /// One line per constant multiplication: how it was lowered.
+    pub mults: Vec<MulNote>,
+}
+
+/// Analysis results for one signal.
+#[derive(Clone, Debug)]
+pub struct SigSummary {
+    /// Physical range of the value (declared, or proved for locals and unranged outputs).
+    pub range: (f64, f64),
+    /// Its format (storage format, or the working format of a `let`).
+    pub format: QFormat,
+    /// Worst-case error of one step against real arithmetic (0 for inputs).
+    pub err: f64,
+}
+
+/// How one constant multiplication was lowered.
+#[derive(Clone, Debug)]
+pub struct MulNote {
+    /// The constant as written (folded).
+    pub constant: f64,
+    /// Its name, if it is a `param`/`const`.
+    pub name: Option<String>,
+    /// Quantised as `m · 2^-k`.
+    pub m: i128,
+    /// Exponent.
+    pub k: i32,
+    /// Adders used (0 for a power of two).
+    pub adders: usize,
+    /// Shifts used.
+    pub shifts: usize,
+    /// Whether the hardware multiplier was used instead.
+    pub hw_mul: bool,
+    /// Cost of shift-add and of the multiplier in the target's model.
+    pub costs: (u32, u32),
+}
+
+impl Plan {
+    /// The value `id`.
+    pub fn val(&self, id: ValId) -> &Val {
+        &self.vals[id.0]
+    }
+
+    /// Storage format of an input, state or output.
+    pub fn format(&self, id: SigId) -> QFormat {
+        self.formats[id.0].unwrap_or(QFormat {
+            ty: IntTy::signed(32),
+            frac: 0,
+        })
+    }
+
+    /// Raw bounds of a ranged signal's saturation interval (declared range quantised inward).
+    pub fn raw_bounds(&self, id: SigId) -> Option<(i128, i128)> {
+        let q = self.formats[id.0]?;
+        let (lo, hi) = self.prog.sig(id).range?;
+        Some((q.raw_ceil(lo), q.raw_floor(hi)))
+    }
+
+    /// Raw initial value of a state (nearest, inside the saturation interval).
+    pub fn raw_init(&self, id: SigId) -> i128 {
+        let q = self.format(id);
+        let v = q.raw_nearest(self.prog.sig(id).init.unwrap_or(0.0));
+        match self.raw_bounds(id) {
+            Some((lo, hi)) => v.clamp(lo, hi),
+            None => v,
+        }
+    }
+}
+
+/// Lowers a checked program for a target.
+pub fn lower(prog: &Program, target: &Target) -> Result<Plan> {
+    let mut formats = vec![None; prog.signals.len()];
+    for (i, s) in prog.signals.iter().enumerate() {
+        if s.kind != SigKind::Local && (s.range.is_some() || s.pin.is_some()) {
+            formats[i] = Some(choose_format(s, prog.word)?);
+        }
+    }
+    let unranged: Vec<SigId> = prog
+        .ids_of(SigKind::Output)
+        .filter(|id| formats[id.0].is_none())
+        .collect();
+    if !unranged.is_empty() {
+        // First pass: learn the value range each unranged output receives.
+        let first = Lowerer::new(prog, target, formats.clone()).run()?;
+        for id in unranged {
+            let (lo, hi) = first.seen[&id];
+            let s = prog.sig(id);
+            let q = QFormat::best_for(IntTy::signed(prog.word), lo, hi).ok_or_else(|| {
+                Diag::new(
+                    s.span,
+                    format!(
+                        "output `{}` spans [{lo:e}, {hi:e}], too wide for {}-bit words",
+                        s.name, prog.word
+                    ),
+                )
+                .help("declare its range (`output y: [LO, HI];`) so it saturates, or pin a format")
+            })?;
+            formats[id.0] = Some(q);
+        }
+    }
+    let done = Lowerer::new(prog, target, formats.clone()).run()?;
+    Ok(done.finish(formats))
+}
+
+/// Picks the storage format of a declared signal.
+fn choose_format(s: &Signal, word: u32) -> Result<QFormat> {
+    let (lo, hi) = s.range.unwrap_or((0.0, 0.0));
+    if let Some(p) = s.pin {
+        if s.range.is_some() && !p.ty.holds(p.raw_floor(lo), p.raw_ceil(hi)) {
+            return Err(Diag::new(
+                s.span,
+                format!(
+                    "pinned format {p} cannot hold the range [{lo}, {hi}] of `{}`",
+                    s.name
+                ),
+            )
+            .help("use fewer fraction bits or a wider word, or remove the pin"));
+        }
+        return Ok(p);
+    }
+    let fit = |ty: IntTy| QFormat::best_for(ty, lo, hi);
+    let q = match s.lsb {
+        Some(lsb) => {
+            let candidates = WIDTHS.iter().flat_map(|&b| {
+                let mut v = vec![IntTy::signed(b)];
+                if lo >= 0.0 {
+                    v.push(IntTy::unsigned(b));
+                }
+                v
+            });
+            candidates.filter_map(fit).find(|q| q.lsb() <= lsb).ok_or_else(|| {
+                Diag::new(s.span, format!("no format up to 64 bits gives `{}` an LSB of {lsb:e} over [{lo}, {hi}]", s.name))
+            })?
+        }
+        None => fit(IntTy::signed(word)).ok_or_else(|| {
+            Diag::new(
+                s.span,
+                format!(
+                    "the range [{lo}, {hi}] of `{}` does not fit a {word}-bit word",
+                    s.name
+                ),
+            )
+            .help("declare a wider `word`, or pin a format with `#[q(i64, F)]`")
+        })?,
+    };
+    Ok(q)
+}
+
+/// Abstract value of a state/output variable.
+#[derive(Clone, Copy, Debug)]
+struct Abs {
+    lo: i128,
+    hi: i128,
+    err: f64,
+    /// Binary point of the stored raw value (the storage format's, except in the first pass
+    /// for an unranged output).
+    frac: i32,
+}
+
+struct Lowerer<'a> {
+    prog: &'a Program,
+    target: &'a Target,
+    formats: Vec<Option<QFormat>>,
+    vals: Vec<Val>,
+    env: HashMap<SigId, Abs>,
+    locals: HashMap<SigId, ValId>,
+    inputs: HashMap<SigId, ValId>,
+    /// Physical hull of values stored to each output.
+    seen: HashMap<SigId, (f64, f64)>,
+    mults: Vec<MulNote>,
+}
+
+struct Lowered {
+    prog: Program,
+    target: Target,
+    vals: Vec<Val>,
+    body: Vec<LStmt>,
+    env: HashMap<SigId, Abs>,
+    locals: HashMap<SigId, ValId>,
+    inputs: HashMap<SigId, ValId>,
+    seen: HashMap<SigId, (f64, f64)>,
+    mults: Vec<MulNote>,
+}
+
+impl Lowered {
+    fn finish(self, formats: Vec<Option<QFormat>>) -> Plan {
+        let summary = self
+            .prog
+            .signals
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                let id = SigId(i);
+                match s.kind {
+                    SigKind::Local => {
+                        let v = &self.vals[self.locals[&id].0];
+                        let q = QFormat {
+                            ty: v.ty,
+                            frac: v.frac,
+                        };
+                        SigSummary {
+                            range: (q.value(v.lo), q.value(v.hi)),
+                            format: q,
+                            err: v.err,
+                        }
+                    }
+                    _ => {
+                        let q = formats[i].unwrap_or(QFormat {
+                            ty: IntTy::signed(32),
+                            frac: 0,
+                        });
+                        let range = s
+                            .range
+                            .or_else(|| self.seen.get(&id).copied())
+                            .unwrap_or((0.0, 0.0));
+                        let err = match s.kind {
+                            SigKind::Input => 0.0,
+                            _ => self.env.get(&id).map_or(0.0, |a| a.err),
+                        };
+                        SigSummary {
+                            range,
+                            format: q,
+                            err,
+                        }
+                    }
+                }
+            })
+            .collect();
+        let _ = &self.inputs;
+        Plan {
+            prog: self.prog,
+            target: self.target,
+            formats,
+            vals: self.vals,
+            body: self.body,
+            summary,
+            mults: self.mults,
+        }
+    }
+}
+
+impl<'a> Lowerer<'a> {
+    fn new(prog: &'a Program, target: &'a Target, formats: Vec<Option<QFormat>>) -> Self {
+        Lowerer {
+            prog,
+            target,
+            formats,
+            vals: Vec::new(),
+            env: HashMap::new(),
+            locals: HashMap::new(),
+            inputs: HashMap::new(),
+            seen: HashMap::new(),
+            mults: Vec::new(),
+        }
+    }
+
+    fn run(mut self) -> Result<Lowered> {
+        let mut body = Vec::new();
+        // States hold values inside their saturation interval at the start of every step.
+        for id in self.prog.ids_of(SigKind::State).collect::<Vec<_>>() {
+            let (lo, hi) = self.bounds(id);
+            let frac = self.fmt(id).frac;
+            self.env.insert(
+                id,
+                Abs {
+                    lo,
+                    hi,
+                    err: 0.0,
+                    frac,
+                },
+            );
+        }
+        // Inputs: read raw bits, clamp to the declared range.
+        for id in self.prog.ids_of(SigKind::Input).collect::<Vec<_>>() {
+            let q = self.fmt(id);
+            let raw = self.push(
+                Op::Input(id),
+                q.ty,
+                q.frac,
+                q.ty.min(),
+                q.ty.max(),
+                0.0,
+                &mut body,
+            );
+            let (lo, hi) = self.bounds(id);
+            let v = self.clamp(raw, lo, hi, &mut body)?;
+            self.vals[v.0].name = Some(self.prog.sig(id).name.clone());
+            self.inputs.insert(id, v);
+        }
+        for s in &self.prog.body {
+            self.stmt(s, &mut body)?;
+        }
+        Ok(Lowered {
+            prog: self.prog.clone(),
+            target: self.target.clone(),
+            vals: self.vals,
+            body,
+            env: self.env,
+            locals: self.locals,
+            inputs: self.inputs,
+            seen: self.seen,
+            mults: self.mults,
+        })
+    }
+
+    fn fmt(&self, id: SigId) -> QFormat {
+        self.formats[id.0].unwrap_or(QFormat {
+            ty: IntTy::signed(self.prog.word),
+            frac: 0,
+        })
+    }
+
+    fn bounds(&self, id: SigId) -> (i128, i128) {
+        let q = self.fmt(id);
+        match self.prog.sig(id).range {
+            Some((lo, hi)) => (
+                q.raw_ceil(lo).max(q.ty.min()),
+                q.raw_floor(hi).min(q.ty.max()),
+            ),
+            None => (q.ty.min(), q.ty.max()),
+        }
+    }
+
+    // ---- value construction ----------------------------------------------------------
+
+    #[allow(clippy::too_many_arguments)]
+    fn push(
+        &mut self,
+        op: Op,
+        ty: IntTy,
+        frac: i32,
+        lo: i128,
+        hi: i128,
+        err: f64,
+        out: &mut Vec<LStmt>,
+    ) -> ValId {
+        debug_assert!(lo <= hi && ty.holds(lo, hi), "{op:?} {ty} [{lo}, {hi}]");
+        let id = ValId(self.vals.len());
+        self.vals.push(Val {
+            op,
+            ty,
+            frac,
+            lo,
+            hi,
+            err,
+            name: None,
+            boolean: false,
+        });
+        out.push(LStmt::Def(id));
+        id
+    }
+
+    fn v(&self, id: ValId) -> &Val {
+        &self.vals[id.0]
+    }
+
+    /// The working type for raw values in `[lo, hi]`.
+    fn working(&self, lo: i128, hi: i128, span: Span) -> Result<IntTy> {
+        IntTy::signed_for(lo, hi, self.target.native_bits).ok_or_else(|| {
+            Diag::new(span, format!("an intermediate needs more than 64 bits (raw range [{lo}, {hi}])"))
+                .help("narrow the declared ranges, or pin coarser formats with `#[q(..)]` / `#[lsb(..)]` on `let`s")
+        })
+    }
+
+    /// `v` converted to type `ty` (a no-op if it already has it).
+    fn cast(&mut self, v: ValId, ty: IntTy, out: &mut Vec<LStmt>) -> ValId {
+        let x = self.v(v).clone();
+        if x.ty == ty {
+            return v;
+        }
+        self.push(Op::Cast(v), ty, x.frac, x.lo, x.hi, x.err, out)
+    }
+
+    /// `v · 2^k` exactly, by a left shift.
+    fn shl(&mut self, v: ValId, k: u32, span: Span, out: &mut Vec<LStmt>) -> Result<ValId> {
+        if k == 0 {
+            return Ok(v);
+        }
+        let x = self.v(v).clone();
+        let (lo, hi) = (x.lo << k, x.hi << k);
+        let ty = self.working(lo.min(x.lo), hi.max(x.hi), span)?;
+        let c = self.cast(v, ty, out);
+        Ok(self.push(Op::Shl(c, k), ty, x.frac + k as i32, lo, hi, x.err, out))
+    }
+
+    /// Drops `n` fraction bits with the program's rounding.
+    fn round(&mut self, v: ValId, n: u32, span: Span, out: &mut Vec<LStmt>) -> Result<ValId> {
+        if n == 0 {
+            return Ok(v);
+        }
+        let mut x = self.v(v).clone();
+        let mut src = v;
+        let lsb_src = pow2(-x.frac);
+        let added = match self.prog.rounding {
+            Rounding::Floor => (pow2(n as i32) - 1.0) * lsb_src,
+            Rounding::Nearest => {
+                let h = 1i128 << (n - 1);
+                let ty = self.working(x.lo + h, x.hi + h, span)?;
+                let c = self.cast(src, ty, out);
+                let hv = self.push(Op::Const(h), ty, x.frac, h, h, 0.0, out);
+                src = self.push(Op::Add(c, hv), ty, x.frac, x.lo + h, x.hi + h, x.err, out);
+                x = self.v(src).clone();
+                pow2(n as i32 - 1) * lsb_src
+            }
+        };
+        Ok(self.push(
+            Op::Shr(src, n),
+            x.ty,
+            x.frac - n as i32,
+            x.lo >> n,
+            x.hi >> n,
+            x.err + added,
+            out,
+        ))
+    }
+
+    /// `v` re-expressed with `frac` fraction bits.
+    fn to_frac(&mut self, v: ValId, frac: i32, span: Span, out: &mut Vec<LStmt>) -> Result<ValId> {
+        let f = self.v(v).frac;
+        if frac >= f {
+            self.shl(v, (frac - f) as u32, span, out)
+        } else {
+            self.round(v, (f - frac) as u32, span, out)
+        }
+    }
+
+    /// Saturates raw `v` into `[lo, hi]`, emitting only the sides the range analysis needs.
+    fn clamp(&mut self, v: ValId, lo: i128, hi: i128, out: &mut Vec<LStmt>) -> Result<ValId> {
+        let mut cur = v;
+        let x = self.v(v).clone();
+        let tl = if x.lo < lo { x.lo.min(lo) } else { x.lo };
+        let th = if x.hi > hi { x.hi.max(hi) } else { x.hi };
+        let ty = self.working(tl, th, Span::call_site())?;
+        if x.lo < lo {
+            cur = self.cast(cur, ty, out);
+            let c = self.push(Op::Const(lo), ty, x.frac, lo, lo, 0.0, out);
+            let y = self.v(cur).clone();
+            cur = self.push(
+                Op::Max(cur, c),
+                ty,
+                x.frac,
+                lo.max(y.lo),
+                lo.max(y.hi),
+                y.err,
+                out,
+            );
+        }
+        if x.hi > hi {
+            cur = self.cast(cur, ty, out);
+            let c = self.push(Op::Const(hi), ty, x.frac, hi, hi, 0.0, out);
+            let y = self.v(cur).clone();
+            cur = self.push(
+                Op::Min(cur, c),
+                ty,
+                x.frac,
+                hi.min(y.lo),
+                hi.min(y.hi),
+                y.err,
+                out,
+            );
+        }
+        if cur == v {
+            cur = self.cast(cur, ty, out);
+        }
+        Ok(cur)
+    }
+
+    // ---- statements ------------------------------------------------------------------
+
+    fn stmt(&mut self, s: &Stmt, out: &mut Vec<LStmt>) -> Result<()> {
+        match s {
+            Stmt::Assign {
+                target,
+                value,
+                span,
+            } => {
+                let sig = self.prog.sig(*target).clone();
+                if sig.kind == SigKind::Local {
+                    let mut v = self.expr(value, 0, out)?;
+                    let x = self.v(v).clone();
+                    if let Some(p) = sig.pin {
+                        v = self.to_frac(v, p.frac, *span, out)?;
+                        let y = self.v(v).clone();
+                        if !p.ty.holds(y.lo, y.hi) {
+                            return Err(Diag::new(
+                                sig.span,
+                                format!(
+                                    "`{}` spans [{}, {}], which does not fit the pinned {p}",
+                                    sig.name,
+                                    p.value(y.lo),
+                                    p.value(y.hi)
+                                ),
+                            )
+                            .help("widen the pinned word or use fewer fraction bits"));
+                        }
+                    } else if let Some(lsb) = sig.lsb {
+                        let f = (-lsb.log2()).ceil() as i32;
+                        if f < x.frac {
+                            v = self.round(v, (x.frac - f) as u32, *span, out)?;
+                        }
+                    }
+                    // Give the binding its own name in the emitted code.
+                    if self.vals[v.0].name.is_some() {
+                        let y = self.v(v).clone();
+                        v = self.push(Op::Cast(v), y.ty, y.frac, y.lo, y.hi, y.err, out);
+                    }
+                    self.vals[v.0].name = Some(sig.name.clone());
+                    self.locals.insert(*target, v);
+                    return Ok(());
+                }
+                let q = self.formats[target.0];
+                let ctx = q.map_or(0, |q| q.frac);
+                let v = match (value, q) {
+                    // `x = a ± b` rounds once, to x's grid. When one operand already lies on
+                    // that grid, rounding the other first gives the identical result
+                    // (floor(a + b) = a + floor(b) for a on the grid; likewise for nearest)
+                    // in a narrower add: `km += C1*em` becomes `km + (em >> n)`.
+                    (Expr::Add(a, b), Some(q)) => {
+                        self.binary_rounded(a, b, q.frac, Bin::Add, out)?
+                    }
+                    (Expr::Sub(a, b), Some(q)) => {
+                        self.binary_rounded(a, b, q.frac, Bin::Sub, out)?
+                    }
+                    _ => self.expr(value, ctx, out)?,
+                };
+                self.store(*target, v, *span, out)
+            }
+            Stmt::If { cond, then, els } => {
+                let c = self.cond(cond, out)?;
+                let before = self.env.clone();
+                let mut t = Vec::new();
+                for s in then {
+                    self.stmt(s, &mut t)?;
+                }
+                let after_then = std::mem::replace(&mut self.env, before);
+                let mut e = Vec::new();
+                for s in els {
+                    self.stmt(s, &mut e)?;
+                }
+                for (id, a) in after_then {
+                    let merged = match self.env.get(&id) {
+                        Some(b) => Abs {
+                            lo: a.lo.min(b.lo),
+                            hi: a.hi.max(b.hi),
+                            err: a.err.max(b.err),
+                            frac: a.frac,
+                        },
+                        None => a,
+                    };
+                    self.env.insert(id, merged);
+                }
+                out.push(LStmt::If(c, t, e));
+                Ok(())
+            }
+        }
+    }
+
+    /// Rounds, saturates and casts `v` into `target`'s storage, then writes it.
+    fn store(&mut self, target: SigId, v: ValId, span: Span, out: &mut Vec<LStmt>) -> Result<()> {
+        let x = self.v(v).clone();
+        let Some(q) = self.formats[target.0] else {
+            // First pass for an unranged output: only record what it receives.
+            let q = QFormat {
+                ty: x.ty,
+                frac: x.frac,
+            };
+            let (lo, hi) = (q.value(x.lo), q.value(x.hi));
+            let e = self.seen.entry(target).or_insert((lo, hi));
+            *e = (e.0.min(lo), e.1.max(hi));
+            self.env.insert(
+                target,
+                Abs {
+                    lo: x.lo,
+                    hi: x.hi,
+                    err: x.err,
+                    frac: x.frac,
+                },
+            );
+            return Ok(());
+        };
+        let mut v = self.to_frac(v, q.frac, span, out)?;
+        let (lo, hi) = self.bounds(target);
+        let y = self.v(v).clone();
+        let mut err = y.err;
+        if y.lo < lo || y.hi > hi {
+            v = self.clamp(v, lo, hi, out)?;
+            if let Some((l, h)) = self.prog.sig(target).range {
+                let gap = (q.value(lo) - l).max(h - q.value(hi)).max(0.0);
+                err += gap;
+            }
+        }
+        self.vals[v.0].err = err;
+        let v = self.cast(v, q.ty, out);
+        let z = self.v(v).clone();
+        {
+            let (l, h) = (q.value(z.lo), q.value(z.hi));
+            let e = self.seen.entry(target).or_insert((l, h));
+            *e = (e.0.min(l), e.1.max(h));
+        }
+        out.push(LStmt::Store(target, v));
+        self.env.insert(
+            target,
+            Abs {
+                lo: z.lo,
+                hi: z.hi,
+                err,
+                frac: q.frac,
+            },
+        );
+        Ok(())
+    }
+
+    // ---- expressions -----------------------------------------------------------------
+
+    /// Lowers `e`; a bare constant takes `ctx` fraction bits (or more, if that makes it exact).
+    fn expr(&mut self, e: &Expr, ctx: i32, out: &mut Vec<LStmt>) -> Result<ValId> {
+        match e {
+            Expr::Const { value, span, .. } => self.constant(*value, ctx, *span, out),
+            Expr::Var(id, span) => self.var(*id, *span, out),
+            Expr::Neg(a) => {
+                let a = self.expr(a, ctx, out)?;
+                let x = self.v(a).clone();
+                let ty = self.working(-x.hi, -x.lo, Span::call_site())?;
+                let c = self.cast(a, ty, out);
+                Ok(self.push(Op::Neg(c), ty, x.frac, -x.hi, -x.lo, x.err, out))
+            }
+            Expr::Add(a, b) => self.binary(a, b, ctx, Bin::Add, out),
+            Expr::Sub(a, b) => self.binary(a, b, ctx, Bin::Sub, out),
+            Expr::Min(a, b) => self.binary(a, b, ctx, Bin::Min, out),
+            Expr::Max(a, b) => self.binary(a, b, ctx, Bin::Max, out),
+            Expr::Mul(a, b, span) => match (&**a, &**b) {
+                (Expr::Const { value, name, .. }, x) | (x, Expr::Const { value, name, .. }) => {
+                    let xv = self.expr(x, ctx, out)?;
+                    self.mul_const(xv, *value, name.clone(), *span, out)
+                }
+                _ => {
+                    let av = self.expr(a, ctx, out)?;
+                    let bv = self.expr(b, ctx, out)?;
+                    self.mul(av, bv, *span, out)
+                }
+            },
+            Expr::Select(c, a, b) => {
+                let c = self.cond(c, out)?;
+                let (a, b) = self.pair(a, b, ctx, out)?;
+                let (a, b, f, ty) = self.align(a, b, Bin::Hull, Span::call_site(), out)?;
+                let (x, y) = (self.v(a).clone(), self.v(b).clone());
+                let err = x.err.max(y.err);
+                let v = self.push(
+                    Op::Select(c, a, b),
+                    ty,
+                    f,
+                    x.lo.min(y.lo),
+                    x.hi.max(y.hi),
+                    err,
+                    out,
+                );
+                Ok(v)
+            }
+        }
+    }
+
+    fn var(&mut self, id: SigId, span: Span, out: &mut Vec<LStmt>) -> Result<ValId> {
+        let s = self.prog.sig(id);
+        match s.kind {
+            SigKind::Input => Ok(self.inputs[&id]),
+            SigKind::Local => Ok(self.locals[&id]),
+            SigKind::State | SigKind::Output => {
+                let a = *self.env.get(&id).ok_or_else(|| {
+                    Diag::new(span, format!("`{}` is read before it is assigned", s.name))
+                })?;
+                let q = self.fmt(id);
+                let ty = match self.formats[id.0] {
+                    Some(q) => q.ty,
+                    // First pass of an unranged output: the stored value is unconverted.
+                    None => IntTy::signed_for(a.lo, a.hi, 8).unwrap_or(q.ty),
+                };
+                let frac = a.frac;
+                Ok(self.push(Op::Load(id), ty, frac, a.lo, a.hi, a.err, out))
+            }
+        }
+    }
+
+    fn constant(&mut self, c: f64, ctx: i32, span: Span, out: &mut Vec<LStmt>) -> Result<ValId> {
+        // Prefer a binary point at which the constant is exact, up to 16 bits finer than ctx.
+        let frac = (ctx..=ctx + 16)
+            .find(|&f| {
+                let r = (c * pow2(f)).round();
+                r * pow2(-f) == c
+            })
+            .unwrap_or(ctx);
+        let raw = (c * pow2(frac)).round() as i128;
+        let ty = self.working(raw, raw, span)?;
+        let err = (c - raw as f64 * pow2(-frac)).abs();
+        Ok(self.push(Op::Const(raw), ty, frac, raw, raw, err, out))
+    }
+
+    /// Lowers two operands; a constant operand takes the other operand's binary point.
+    fn pair(
+        &mut self,
+        a: &Expr,
+        b: &Expr,
+        ctx: i32,
+        out: &mut Vec<LStmt>,
+    ) -> Result<(ValId, ValId)> {
+        Ok(match (a, b) {
+            (Expr::Const { value, span, .. }, x) if !matches!(x, Expr::Const { .. }) => {
+                let xv = self.expr(x, ctx, out)?;
+                let f = self.v(xv).frac;
+                (self.constant(*value, f, *span, out)?, xv)
+            }
+            (x, Expr::Const { value, span, .. }) if !matches!(x, Expr::Const { .. }) => {
+                let xv = self.expr(x, ctx, out)?;
+                let f = self.v(xv).frac;
+                (xv, self.constant(*value, f, *span, out)?)
+            }
+            _ => (self.expr(a, ctx, out)?, self.expr(b, ctx, out)?),
+        })
+    }
+
+    /// Brings `a` and `b` to a common binary point and working type that also holds the
+    /// result of `op`. Drops fraction bits (rounding) only if exact alignment needs > 64 bits.
+    fn align(
+        &mut self,
+        a: ValId,
+        b: ValId,
+        op: Bin,
+        span: Span,
+        out: &mut Vec<LStmt>,
+    ) -> Result<(ValId, ValId, i32, IntTy)> {
+        let (x, y) = (self.v(a).clone(), self.v(b).clone());
+        let mut f = x.frac.max(y.frac);
+        let at = |v: &Val, f: i32| -> (i128, i128) {
+            if f >= v.frac {
+                (v.lo << (f - v.frac), v.hi << (f - v.frac))
+            } else {
+                (v.lo >> (v.frac - f), (v.hi >> (v.frac - f)) + 1)
+            }
+        };
+        let ty = loop {
+            let (xl, xh) = at(&x, f);
+            let (yl, yh) = at(&y, f);
+            let (rl, rh) = op.range((xl, xh), (yl, yh));
+            let lo = xl.min(yl).min(rl);
+            let hi = xh.max(yh).max(rh);
+            if let Some(t) = IntTy::signed_for(lo, hi, self.target.native_bits) {
+                break t;
+            }
+            if f <= x.frac.min(y.frac) - 64 {
+                return Err(Diag::new(
+                    span,
+                    "operands too far apart in magnitude for 64-bit arithmetic",
+                ));
+            }
+            f -= 1;
+        };
+        let a = self.to_frac(a, f, span, out)?;
+        let b = self.to_frac(b, f, span, out)?;
+        let a = self.cast(a, ty, out);
+        let b = self.cast(b, ty, out);
+        Ok((a, b, f, ty))
+    }
+
+    fn binary(
+        &mut self,
+        a: &Expr,
+        b: &Expr,
+        ctx: i32,
+        op: Bin,
+        out: &mut Vec<LStmt>,
+    ) -> Result<ValId> {
+        let (a, b) = self.pair(a, b, ctx, out)?;
+        self.binary_vals(a, b, op, out)
+    }
+
+    /// `a ± b` about to be rounded to `frac` bits: rounds the finer operand first where that
+    /// is exact (the other operand on the grid; for `-`, only the minuend may be finer).
+    fn binary_rounded(
+        &mut self,
+        a: &Expr,
+        b: &Expr,
+        frac: i32,
+        op: Bin,
+        out: &mut Vec<LStmt>,
+    ) -> Result<ValId> {
+        let (mut a, mut b) = self.pair(a, b, frac, out)?;
+        let (fa, fb) = (self.v(a).frac, self.v(b).frac);
+        if fb <= frac && fa > frac {
+            a = self.round(a, (fa - frac) as u32, Span::call_site(), out)?;
+        } else if matches!(op, Bin::Add) && fa <= frac && fb > frac {
+            b = self.round(b, (fb - frac) as u32, Span::call_site(), out)?;
+        }
+        self.binary_vals(a, b, op, out)
+    }
+
+    fn binary_vals(&mut self, a: ValId, b: ValId, op: Bin, out: &mut Vec<LStmt>) -> Result<ValId> {
+        let (a, b, f, ty) = self.align(a, b, op, Span::call_site(), out)?;
+        let (x, y) = (self.v(a).clone(), self.v(b).clone());
+        let (lo, hi) = op.range((x.lo, x.hi), (y.lo, y.hi));
+        let (o, err) = match op {
+            Bin::Add => (Op::Add(a, b), x.err + y.err),
+            Bin::Sub => (Op::Sub(a, b), x.err + y.err),
+            Bin::Min => (Op::Min(a, b), x.err.max(y.err)),
+            Bin::Max => (Op::Max(a, b), x.err.max(y.err)),
+            Bin::Hull | Bin::Mul => unreachable!("not an additive operation"),
+        };
+        Ok(self.push(o, ty, f, lo, hi, err, out))
+    }
+
+    /// Variable × variable: a widening multiply, exact unless the product would exceed 64 bits.
+    fn mul(&mut self, a: ValId, b: ValId, span: Span, out: &mut Vec<LStmt>) -> Result<ValId> {
+        let (mut a, mut b) = (a, b);
+        loop {
+            let (x, y) = (self.v(a).clone(), self.v(b).clone());
+            let (lo, hi) = Bin::Mul.range((x.lo, x.hi), (y.lo, y.hi));
+            let (lo, hi) = (lo.min(x.lo).min(y.lo), hi.max(x.hi).max(y.hi));
+            if let Some(ty) = IntTy::signed_for(lo, hi, self.target.native_bits) {
+                let a2 = self.cast(a, ty, out);
+                let b2 = self.cast(b, ty, out);
+                let (plo, phi) = Bin::Mul.range((x.lo, x.hi), (y.lo, y.hi));
+                let mx = x.lo.abs().max(x.hi.abs()) as f64 * pow2(-x.frac);
+                let my = y.lo.abs().max(y.hi.abs()) as f64 * pow2(-y.frac);
+                let err = mx * y.err + my * x.err + 3.0 * x.err * y.err;
+                return Ok(self.push(Op::Mul(a2, b2), ty, x.frac + y.frac, plo, phi, err, out));
+            }
+            // Too wide: drop one fraction bit from the operand with more of them.
+            let bits = |v: &Val| 128 - v.lo.abs().max(v.hi.abs()).leading_zeros();
+            if bits(&x) <= 1 && bits(&y) <= 1 {
+                return Err(Diag::new(span, "product does not fit 64 bits"));
+            }
+            if bits(&x) >= bits(&y) {
+                a = self.round(a, 1, span, out)?;
+            } else {
+                b = self.round(b, 1, span, out)?;
+            }
+        }
+    }
+
+    /// Variable × constant: shift-add network, or the multiplier if the cost model says so.
+    fn mul_const(
+        &mut self,
+        x: ValId,
+        c: f64,
+        name: Option<String>,
+        span: Span,
+        out: &mut Vec<LStmt>,
+    ) -> Result<ValId> {
+        let xv = self.v(x).clone();
+        let mx = xv.lo.abs().max(xv.hi.abs()) as f64 * pow2(-xv.frac);
+        // Quantise c as m·2^-k, fine enough that |c − m·2^-k|·max|x| ≤ ½ LSB of x.
+        let tol = pow2(-xv.frac - 1);
+        let (mut m, mut k) = (0i128, 0i32);
+        for kk in -64..=120 {
+            let mm = (c * pow2(kk)).round();
+            if mm.abs() >= pow2(62) {
+                break;
+            }
+            m = mm as i128;
+            k = kk;
+            if (c - mm * pow2(-kk)).abs() * mx <= tol {
+                break;
+            }
+        }
+        while m != 0 && m % 2 == 0 {
+            m /= 2;
+            k -= 1;
+        }
+        let q = m as f64 * pow2(-k);
+        let err = (q.abs() * xv.err) + (mx + xv.err) * (q - c).abs();
+        let frac = xv.frac + k;
+        if m == 0 {
+            return Ok(self.push(
+                Op::Const(0),
+                IntTy::signed(self.target.native_bits),
+                frac,
+                0,
+                0,
+                err,
+                out,
+            ));
+        }
+        let plan = shift_add::best(m);
+        let coefs: Vec<i128> = plan.step_coefficients();
+        // Largest magnitude any partial term reaches, for the working type.
+        let mut maxc = m.abs();
+        for (s, st) in plan.steps.iter().enumerate() {
+            let coef_of = |o: shift_add::Operand| match o {
+                shift_add::Operand::X => 1i128,
+                shift_add::Operand::Step(j) => coefs[j],
+            };
+            maxc = maxc
+                .max(coef_of(st.a).abs() << st.a_shift)
+                .max(coef_of(st.b).abs() << st.b_shift)
+                .max(coefs[s].abs());
+        }
+        let xm = xv.lo.abs().max(xv.hi.abs());
+        let ty = self.working(-(xm * maxc), xm * maxc, span)?;
+        let bits = ty.bits;
+        let sa_cost = plan.adders() as u32 * self.target.add_cost(bits)
+            + plan.shifts() as u32 * self.target.shift_cost(bits)
+            + u32::from(plan.negate) * self.target.add_cost(bits);
+        let hw_cost = self.target.mul_cost(bits);
+        let (plo, phi) = Bin::Mul.range((xv.lo, xv.hi), (m, m));
+        let hw = plan.adders() > 0 && hw_cost < sa_cost;
+        self.mults.push(MulNote {
+            constant: c,
+            name,
+            m,
+            k,
+            adders: plan.adders(),
+            shifts: plan.shifts(),
+            hw_mul: hw,
+            costs: (sa_cost, hw_cost),
+        });
+        let xw = self.cast(x, ty, out);
+        if hw {
+            let cm = self.push(Op::Const(m), ty, 0, m, m, 0.0, out);
+            return Ok(self.push(Op::Mul(xw, cm), ty, frac, plo, phi, err, out));
+        }
+        // Shift-add network; every partial value is coef·x, exact.
+        let range = |coef: i128| -> (i128, i128) {
+            let (a, b) = (xv.lo * coef, xv.hi * coef);
+            (a.min(b), a.max(b))
+        };
+        let mut step_vals: Vec<ValId> = Vec::new();
+        for (s, st) in plan.steps.iter().enumerate() {
+            let operand = |o: shift_add::Operand, sv: &Vec<ValId>| match o {
+                shift_add::Operand::X => (xw, 1i128),
+                shift_add::Operand::Step(j) => (sv[j], coefs[j]),
+            };
+            let (av, ac) = operand(st.a, &step_vals);
+            let (bv, bc) = operand(st.b, &step_vals);
+            let term = |v: ValId, c: i128, sh: u32, lw: &mut Self, out: &mut Vec<LStmt>| -> ValId {
+                if sh == 0 {
+                    return v;
+                }
+                let (lo, hi) = range(c << sh);
+                lw.push(Op::Shl(v, sh), ty, xv.frac, lo, hi, 0.0, out)
+            };
+            let mut ta = term(av, ac, st.a_shift, self, out);
+            let tb = term(bv, bc, st.b_shift, self, out);
+            let ca = if st.negate_a {
+                -(ac << st.a_shift)
+            } else {
+                ac << st.a_shift
+            };
+            if st.negate_a {
+                let (lo, hi) = range(ca);
+                ta = self.push(Op::Neg(ta), ty, xv.frac, lo, hi, 0.0, out);
+            }
+            let (lo, hi) = range(coefs[s]);
+            let op = if st.subtract {
+                Op::Sub(ta, tb)
+            } else {
+                Op::Add(ta, tb)
+            };
+            step_vals.push(self.push(op, ty, xv.frac, lo, hi, 0.0, out));
+        }
+        let mut r = match plan.result {
+            shift_add::Operand::X => xw,
+            shift_add::Operand::Step(j) => step_vals[j],
+        };
+        let mut coef = match plan.result {
+            shift_add::Operand::X => 1,
+            shift_add::Operand::Step(j) => coefs[j],
+        };
+        if plan.final_shift > 0 {
+            coef <<= plan.final_shift;
+            let (lo, hi) = range(coef);
+            r = self.push(Op::Shl(r, plan.final_shift), ty, xv.frac, lo, hi, 0.0, out);
+        }
+        if plan.negate {
+            coef = -coef;
+            let (lo, hi) = range(coef);
+            r = self.push(Op::Neg(r), ty, xv.frac, lo, hi, 0.0, out);
+        }
+        debug_assert_eq!(coef, m, "shift-add plan computes {coef}·x, wanted {m}·x");
+        // Re-label the binary point: the network computed x·m; the value is x·m·2^-k.
+        Ok(self.push(Op::Cast(r), ty, frac, plo, phi, err, out))
+    }
+
+    fn cond(&mut self, c: &Cond, out: &mut Vec<LStmt>) -> Result<ValId> {
+        let (op, err) = match c {
+            Cond::Cmp(op, a, b) => {
+                let (a, b) = self.pair(a, b, 0, out)?;
+                let (a, b, _, _) = self.align(a, b, Bin::Hull, Span::call_site(), out)?;
+                (Op::Cmp(*op, a, b), 0.0)
+            }
+            Cond::And(a, b) => (Op::And(self.cond(a, out)?, self.cond(b, out)?), 0.0),
+            Cond::Or(a, b) => (Op::Or(self.cond(a, out)?, self.cond(b, out)?), 0.0),
+            Cond::Not(a) => (Op::Not(self.cond(a, out)?), 0.0),
+        };
+        let id = self.push(op, IntTy::signed(8), 0, 0, 1, err, out);
+        self.vals[id.0].boolean = true;
+        Ok(id)
+    }
+}
+
+/// Binary operation kinds for range computation.
+#[derive(Clone, Copy, Debug)]
+enum Bin {
+    Add,
+    Sub,
+    Mul,
+    Min,
+    Max,
+    /// Both operands kept (select, compare): the range is their hull.
+    Hull,
+}
+
+impl Bin {
+    fn range(self, (al, ah): (i128, i128), (bl, bh): (i128, i128)) -> (i128, i128) {
+        match self {
+            Bin::Add => (al + bl, ah + bh),
+            Bin::Sub => (al - bh, ah - bl),
+            Bin::Mul => {
+                let c = [al * bl, al * bh, ah * bl, ah * bh];
+                (
+                    c.iter().copied().min().unwrap_or(0),
+                    c.iter().copied().max().unwrap_or(0),
+                )
+            }
+            Bin::Min => (al.min(bl), ah.min(bh)),
+            Bin::Max => (al.max(bl), ah.max(bh)),
+            Bin::Hull => (al.min(bl), ah.max(bh)),
+        }
+    }
+}

@@ -1,0 +1,178 @@
+//! The `qloop check` report: per-signal ranges, formats, resolution and error bounds, and
+//! how each multiplication was lowered.
+
+use crate::emit::kind_name;
+use crate::ir::SigKind;
+use crate::lower::lir::{LStmt, Op};
+use crate::lower::Plan;
+use std::fmt::Write;
+
+/// Counts of emitted operations in `step` (both branches of every `if`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct OpCounts {
+    /// Adds, subtracts and negations.
+    pub add: usize,
+    /// Constant shifts.
+    pub shift: usize,
+    /// Hardware multiplies.
+    pub mul: usize,
+    /// Comparisons, min, max, selects.
+    pub cmp: usize,
+    /// Divisions: always zero, by construction.
+    pub div: usize,
+}
+
+/// Counts operations in the plan.
+pub fn op_counts(plan: &Plan) -> OpCounts {
+    fn walk(plan: &Plan, s: &[LStmt], c: &mut OpCounts) {
+        for st in s {
+            match st {
+                LStmt::Def(id) => match plan.val(*id).op {
+                    Op::Add(..) | Op::Sub(..) | Op::Neg(..) => c.add += 1,
+                    Op::Shl(..) | Op::Shr(..) => c.shift += 1,
+                    Op::Mul(..) => c.mul += 1,
+                    Op::Min(..) | Op::Max(..) | Op::Select(..) | Op::Cmp(..) => c.cmp += 1,
+                    _ => {}
+                },
+                LStmt::Store(..) => {}
+                LStmt::If(_, t, e) => {
+                    c.cmp += 1;
+                    walk(plan, t, c);
+                    walk(plan, e, c);
+                }
+            }
+        }
+    }
+    let mut c = OpCounts::default();
+    walk(plan, &plan.body, &mut c);
+    c
+}
+
+/// The human-readable check report.
+pub fn check_report(plan: &Plan, file: &str) -> String {
+    let p = &plan.prog;
+    let mut o = String::new();
+    let _ = writeln!(o, "controller `{}`  ({file})", p.name);
+    let _ = writeln!(
+        o,
+        "period {} s, rounding {}, default word {} bits, target {} ({})",
+        p.period, p.rounding, p.word, plan.target.name, plan.target.about
+    );
+    let _ = writeln!(o);
+    let rows: Vec<[String; 7]> = p
+        .signals
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let sm = &plan.summary[i];
+            let err = if s.kind == SigKind::Input {
+                "exact".to_string()
+            } else {
+                format!("{:.3e}", sm.err)
+            };
+            let pct = if s.kind == SigKind::Input || sm.range.1 <= sm.range.0 {
+                String::new()
+            } else {
+                format!("{:.2e}%", 100.0 * sm.err / (sm.range.1 - sm.range.0))
+            };
+            [
+                s.name.clone(),
+                kind_name(s.kind).to_string(),
+                format!("[{}, {}]", g(sm.range.0), g(sm.range.1)),
+                s.unit.clone().unwrap_or_default(),
+                sm.format.to_string(),
+                format!("{:.3e}", sm.format.lsb()),
+                format!("{err} {pct}"),
+            ]
+        })
+        .collect();
+    let head = [
+        "signal",
+        "kind",
+        "range",
+        "unit",
+        "Q-format",
+        "LSB",
+        "max |error|, one step (% of range)",
+    ];
+    let mut w = head.map(str::len);
+    for r in &rows {
+        for (i, c) in r.iter().enumerate() {
+            w[i] = w[i].max(c.chars().count());
+        }
+    }
+    let line = |cells: &[String]| {
+        let mut s = String::new();
+        for (i, c) in cells.iter().enumerate() {
+            let _ = write!(s, "{:<width$}  ", c, width = w[i]);
+        }
+        s.trim_end().to_string()
+    };
+    let _ = writeln!(o, "{}", line(&head.map(String::from)));
+    let _ = writeln!(
+        o,
+        "{}",
+        w.iter()
+            .map(|n| "-".repeat(*n))
+            .collect::<Vec<_>>()
+            .join("  ")
+    );
+    for r in &rows {
+        let _ = writeln!(o, "{}", line(r));
+    }
+    let _ = writeln!(o);
+    let _ = writeln!(o, "Constant multiplications:");
+    if plan.mults.is_empty() {
+        let _ = writeln!(o, "  (none)");
+    }
+    for m in &plan.mults {
+        let what = m.name.clone().unwrap_or_else(|| g(m.constant));
+        let how = if m.hw_mul {
+            format!(
+                "hardware multiply (cost {} < shift-add {})",
+                m.costs.1, m.costs.0
+            )
+        } else if m.adders == 0 {
+            if m.m.abs() == 1 {
+                let dir = if m.k > 0 { "right" } else { "left" };
+                format!(
+                    "power of two: a {dir} shift by {} place(s), folded into the next alignment or rounding shift",
+                    m.k.abs()
+                )
+            } else {
+                format!("{} shift(s), no adders", m.shifts)
+            }
+        } else {
+            format!(
+                "{} adder(s), {} shift(s) (cost {} vs multiply {})",
+                m.adders, m.shifts, m.costs.0, m.costs.1
+            )
+        };
+        let _ = writeln!(o, "  x * {what} = x * {}·2^{}: {how}", m.m, -m.k);
+    }
+    let c = op_counts(plan);
+    let _ = writeln!(o);
+    let _ = writeln!(
+        o,
+        "step: {} add/sub, {} shifts, {} multiplies, {} compare/select, {} divisions",
+        c.add, c.shift, c.mul, c.cmp, c.div
+    );
+    let _ = writeln!(
+        o,
+        "Errors are one-step bounds against real arithmetic from the same state and inputs, \
+assuming both take the same branches."
+    );
+    o
+}
+
+/// Compact number formatting for tables.
+fn g(v: f64) -> String {
+    if v == 0.0 {
+        "0".into()
+    } else if v.abs() >= 1e-3 && v.abs() < 1e6 {
+        let s = format!("{v:.6}");
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        format!("{v:.4e}")
+    }
+}

@@ -1,0 +1,108 @@
+//! The spec's syntax tree, as parsed, with spans. Nothing here is checked yet.
+
+use proc_macro2::{Span, TokenStream};
+use syn::{Attribute, Block, Expr, Ident, LitStr};
+
+/// A whole `controller NAME { ... }` item.
+#[derive(Clone)]
+pub struct SpecAst {
+    /// `///` doc lines above `controller`.
+    pub docs: Vec<String>,
+    /// The controller's name (snake_case; becomes the generated module name).
+    pub name: Ident,
+    /// Items in source order.
+    pub items: Vec<Item>,
+}
+
+/// One item inside the controller's braces.
+#[derive(Clone)]
+pub enum Item {
+    /// `period 0.1 "s";` — the sample period.
+    Period {
+        /// Value expression (constant).
+        value: Expr,
+        /// Unit string; only `"s"` and `"ms"` are accepted.
+        unit: Option<LitStr>,
+        /// The `period` keyword.
+        span: Span,
+    },
+    /// `rounding floor;` or `rounding nearest;`.
+    Rounding {
+        /// `floor` or `nearest`.
+        mode: Ident,
+    },
+    /// `word 16;` — default storage word width for inputs, states and outputs.
+    Word {
+        /// The width literal.
+        bits: syn::LitInt,
+    },
+    /// `input`, `state` or `output` declaration.
+    Signal(SignalDecl),
+    /// `param` or `const` declaration.
+    Constant(ConstDecl),
+    /// `step { ... }` — the update body.
+    Step(Block),
+    /// `prove { ... }` — properties to prove (filled by the proofs issue).
+    Prove {
+        /// Raw tokens inside the braces.
+        tokens: TokenStream,
+        /// The `prove` keyword.
+        span: Span,
+    },
+}
+
+/// Which kind of signal a declaration introduces.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SignalKw {
+    /// `input`
+    Input,
+    /// `state`
+    State,
+    /// `output`
+    Output,
+}
+
+/// `input NAME: [LO, HI] "unit";`, `state NAME: [LO, HI] "unit" = INIT;`, `output NAME ...;`
+#[derive(Clone)]
+pub struct SignalDecl {
+    /// Outer attributes: docs, `#[q(i32, 20)]`, `#[lsb(1e-3)]`.
+    pub attrs: Vec<Attribute>,
+    /// Declaration keyword.
+    pub kind: SignalKw,
+    /// The keyword's span.
+    pub kw_span: Span,
+    /// Signal name.
+    pub name: Ident,
+    /// `[LO, HI]`, if given.
+    pub range: Option<RangeAst>,
+    /// Physical unit, free text.
+    pub unit: Option<LitStr>,
+    /// `= INIT` for states.
+    pub init: Option<Expr>,
+}
+
+/// A `[LO, HI]` range with its span.
+#[derive(Clone)]
+pub struct RangeAst {
+    /// Lower bound expression.
+    pub lo: Expr,
+    /// Upper bound expression.
+    pub hi: Expr,
+    /// The bracket span.
+    pub span: Span,
+}
+
+/// `param NAME: VALUE "unit";` or `const NAME: VALUE;`
+#[derive(Clone)]
+pub struct ConstDecl {
+    /// Outer attributes: docs, `#[q(...)]`.
+    pub attrs: Vec<Attribute>,
+    /// `true` for `param` (a tunable compile-time value), `false` for `const`.
+    pub is_param: bool,
+    /// Name.
+    pub name: Ident,
+    /// Value expression (folded at compile time).
+    pub value: Expr,
+    /// Physical unit.
+    pub unit: Option<LitStr>,
+}

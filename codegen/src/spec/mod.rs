@@ -1,0 +1,4 @@
+//! The spec language: syntax tree and the one parser shared by the macro and the CLI.
+
+pub mod ast;
+pub mod parse;

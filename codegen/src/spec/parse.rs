@@ -1,0 +1,220 @@
+//! The one parser for specs, used by both the `controller!` macro and the `qloop` CLI.
+//!
+//! Specs are Rust token trees, so `syn` does the lexing, and the `step` body is parsed as an
+//! ordinary Rust block; [`crate::check`] later rejects what qloop does not support.
+
+use super::ast::*;
+use crate::diag::{Diag, Result};
+use proc_macro2::TokenStream;
+use syn::parse::{Parse, ParseStream};
+use syn::{braced, bracketed, Attribute, Expr, Ident, LitStr, Token};
+
+mod kw {
+    syn::custom_keyword!(controller);
+    syn::custom_keyword!(period);
+    syn::custom_keyword!(rounding);
+    syn::custom_keyword!(word);
+    syn::custom_keyword!(input);
+    syn::custom_keyword!(state);
+    syn::custom_keyword!(output);
+    syn::custom_keyword!(param);
+    syn::custom_keyword!(step);
+    syn::custom_keyword!(prove);
+}
+
+const ITEM_HELP: &str = "a controller body holds `period`, `rounding`, `word`, `input`, `param`, \
+`const`, `state`, `output`, `step { .. }` and `prove { .. }` items";
+
+impl Parse for SpecAst {
+    fn parse(input: ParseStream) -> syn::Result<Self> {
+        let attrs = input.call(Attribute::parse_outer)?;
+        let docs = doc_lines(&attrs);
+        if let Some(a) = attrs.iter().find(|a| !a.path().is_ident("doc")) {
+            return Err(syn::Error::new_spanned(
+                a,
+                "only doc comments may stand above `controller`",
+            ));
+        }
+        input
+            .parse::<kw::controller>()
+            .map_err(|e| syn::Error::new(e.span(), "expected `controller NAME { ... }`"))?;
+        let name: Ident = input.parse()?;
+        let content;
+        braced!(content in input);
+        let mut items = Vec::new();
+        while !content.is_empty() {
+            items.push(parse_item(&content)?);
+        }
+        if !input.is_empty() {
+            return Err(input.error("unexpected tokens after the controller's closing brace"));
+        }
+        Ok(SpecAst { docs, name, items })
+    }
+}
+
+fn parse_item(input: ParseStream) -> syn::Result<Item> {
+    let attrs = input.call(Attribute::parse_outer)?;
+    let la = input.lookahead1();
+    if la.peek(kw::period) {
+        let span = input.parse::<kw::period>()?.span;
+        let value = parse_value(input)?;
+        let unit = parse_unit(input)?;
+        input.parse::<Token![;]>()?;
+        Ok(Item::Period { value, unit, span })
+    } else if la.peek(kw::rounding) {
+        input.parse::<kw::rounding>()?;
+        let mode: Ident = input.parse()?;
+        input.parse::<Token![;]>()?;
+        Ok(Item::Rounding { mode })
+    } else if la.peek(kw::word) {
+        input.parse::<kw::word>()?;
+        let bits = input.parse()?;
+        input.parse::<Token![;]>()?;
+        Ok(Item::Word { bits })
+    } else if la.peek(kw::input) || la.peek(kw::state) || la.peek(kw::output) {
+        let (kind, kw_span) = if input.peek(kw::input) {
+            (SignalKw::Input, input.parse::<kw::input>()?.span)
+        } else if input.peek(kw::state) {
+            (SignalKw::State, input.parse::<kw::state>()?.span)
+        } else {
+            (SignalKw::Output, input.parse::<kw::output>()?.span)
+        };
+        let name: Ident = input.parse()?;
+        let range = if input.peek(Token![:]) {
+            input.parse::<Token![:]>()?;
+            Some(parse_range(input)?)
+        } else {
+            None
+        };
+        let unit = parse_unit(input)?;
+        let init = if input.peek(Token![=]) {
+            input.parse::<Token![=]>()?;
+            Some(parse_value(input)?)
+        } else {
+            None
+        };
+        input.parse::<Token![;]>()?;
+        Ok(Item::Signal(SignalDecl {
+            attrs,
+            kind,
+            kw_span,
+            name,
+            range,
+            unit,
+            init,
+        }))
+    } else if la.peek(kw::param) || la.peek(Token![const]) {
+        let is_param = if input.peek(kw::param) {
+            input.parse::<kw::param>()?;
+            true
+        } else {
+            input.parse::<Token![const]>()?;
+            false
+        };
+        let name: Ident = input.parse()?;
+        input.parse::<Token![:]>()?;
+        let value = parse_value(input)?;
+        let unit = parse_unit(input)?;
+        input.parse::<Token![;]>()?;
+        Ok(Item::Constant(ConstDecl {
+            attrs,
+            is_param,
+            name,
+            value,
+            unit,
+        }))
+    } else if la.peek(kw::step) {
+        input.parse::<kw::step>()?;
+        Ok(Item::Step(input.parse()?))
+    } else if la.peek(kw::prove) {
+        let span = input.parse::<kw::prove>()?.span;
+        let content;
+        braced!(content in input);
+        Ok(Item::Prove {
+            tokens: content.parse::<TokenStream>()?,
+            span,
+        })
+    } else {
+        let e = la.error();
+        Err(syn::Error::new(e.span(), format!("{e}; {ITEM_HELP}")))
+    }
+}
+
+/// A constant expression: stops before a unit string, `=` or `;`.
+fn parse_value(input: ParseStream) -> syn::Result<Expr> {
+    // `Expr::parse_without_eager_brace` stops at `;`, `=` is not a binary operator here since
+    // assignment expressions are only parsed at statement level by `syn` 2.
+    let mut tokens = TokenStream::new();
+    while !input.is_empty()
+        && !input.peek(Token![;])
+        && !input.peek(Token![=])
+        && !input.peek(LitStr)
+    {
+        let tt: proc_macro2::TokenTree = input.parse()?;
+        tokens.extend(std::iter::once(tt));
+    }
+    if tokens.is_empty() {
+        return Err(input.error("expected a value"));
+    }
+    syn::parse2(tokens)
+}
+
+fn parse_unit(input: ParseStream) -> syn::Result<Option<LitStr>> {
+    if input.peek(LitStr) {
+        Ok(Some(input.parse()?))
+    } else {
+        Ok(None)
+    }
+}
+
+fn parse_range(input: ParseStream) -> syn::Result<RangeAst> {
+    let content;
+    let bracket = bracketed!(content in input);
+    let span = bracket.span.join();
+    let lo: Expr = content.parse()?;
+    content
+        .parse::<Token![,]>()
+        .map_err(|e| syn::Error::new(e.span(), "a range is written `[LO, HI]`"))?;
+    let hi: Expr = content.parse()?;
+    if !content.is_empty() {
+        return Err(content.error("a range is written `[LO, HI]`"));
+    }
+    Ok(RangeAst { lo, hi, span })
+}
+
+/// The text of `///` doc attributes, one entry per line, leading space trimmed.
+pub fn doc_lines(attrs: &[Attribute]) -> Vec<String> {
+    attrs
+        .iter()
+        .filter(|a| a.path().is_ident("doc"))
+        .filter_map(|a| match &a.meta {
+            syn::Meta::NameValue(nv) => match &nv.value {
+                Expr::Lit(syn::ExprLit {
+                    lit: syn::Lit::Str(s),
+                    ..
+                }) => Some(
+                    s.value()
+                        .strip_prefix(' ')
+                        .map(str::to_owned)
+                        .unwrap_or(s.value()),
+                ),
+                _ => None,
+            },
+            _ => None,
+        })
+        .collect()
+}
+
+/// Parses a spec from tokens (the macro's input, or a file lexed by [`parse_str`]).
+pub fn parse_tokens(tokens: TokenStream) -> Result<SpecAst> {
+    syn::parse2(tokens).map_err(Diag::from)
+}
+
+/// Lexes and parses a `.qloop` file's text. Spans then carry line/column within `src`.
+pub fn parse_str(src: &str) -> Result<SpecAst> {
+    let tokens: TokenStream = src.parse().map_err(|e: proc_macro2::LexError| {
+        Diag::new(e.span(), format!("cannot lex the spec: {e}"))
+            .help("a spec uses Rust tokens: check for unbalanced brackets or unterminated strings")
+    })?;
+    parse_tokens(tokens)
+}
