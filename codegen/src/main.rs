@@ -139,11 +139,12 @@ fn load(path: &Path, target_name: &str) -> Result<(Plan, String), Fail> {
 
 /// Renders a diagnostic with file:line:col and a caret (miette).
 fn report(d: &Diag, file: &str, src: &str) {
-    let (line, col) = d.line_col();
+    // miette prints `file:line:col` in the snippet header.
     let (s, e) = d.byte_range(src);
-    let mut m = MietteDiagnostic::new(format!("{} ({file}:{line}:{col})", d.message)).with_label(
-        LabeledSpan::at(s..e.max(s + 1).min(src.len().max(s)), d.label.clone()),
-    );
+    let mut m = MietteDiagnostic::new(d.message.clone()).with_label(LabeledSpan::at(
+        s..e.max(s + 1).min(src.len().max(s)),
+        d.label.clone(),
+    ));
     if let Some(h) = &d.help {
         m = m.with_help(h.clone());
     }

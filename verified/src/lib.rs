@@ -1,1 +1,14 @@
+//! Seed controllers compiled by qloop from `verified/specs/*.qloop` through the
+//! `controller!` macro. `#![no_std]`: the fixed-point modules use only integer arithmetic.
+//!
+//! * [`koren_masory_1981`]: the adaptive ACC of Koren & Masory (1981), process estimator
+//!   (000_b8cbacf29caa8fe2.txt eqs. 8-9) and variable-gain loop (eqs. 12-13).
+//! * [`acc_fixed_gain`]: conventional ACC with a fixed gain (002_39e44efc2e4f2eb6.txt eqs. 6-9).
+//!
+//! The `*_ref` modules are the f64 reference controllers compiled from the same specs.
 #![no_std]
+
+qloop_macros::controller!("specs/koren_masory_1981.qloop");
+qloop_macros::controller!("specs/koren_masory_1981.qloop", reference);
+qloop_macros::controller!("specs/acc_fixed_gain.qloop");
+qloop_macros::controller!("specs/acc_fixed_gain.qloop", reference);

@@ -50,6 +50,18 @@ pub fn module_doc(plan: &Plan, what: &str) -> String {
     d
 }
 
+/// Lints the generated modules allow, each on purpose: one `let` per operation with `_N`
+/// temporaries and explicit casts (so every intermediate's type is visible), `max`/`min`
+/// rather than `clamp` (which has a panicking path), and defensive parentheses.
+pub fn allowed_lints() -> TokenStream {
+    quote::quote! {
+        unused_mut, unused_assignments, unused_parens,
+        clippy::just_underscores_and_digits, clippy::manual_clamp, clippy::unnecessary_cast,
+        clippy::identity_op, clippy::let_and_return, clippy::needless_late_init,
+        clippy::double_parens, clippy::nonminimal_bool
+    }
+}
+
 /// One signal's doc line for a struct field.
 pub fn sig_doc(plan: &Plan, id: SigId) -> String {
     let s = plan.prog.sig(id);

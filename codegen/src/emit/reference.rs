@@ -62,6 +62,7 @@ pub fn module(plan: &Plan) -> TokenStream {
         let n = name(id);
         quote! { let mut #n: f64 = 0.0; }
     });
+    let allows = super::allowed_lints();
     let body = block(prog, &prog.body);
     let save = states.iter().map(|id| {
         let n = name(id);
@@ -73,6 +74,7 @@ pub fn module(plan: &Plan) -> TokenStream {
     });
     quote! {
         #[doc = #doc]
+        #[allow(#allows)]
         pub mod #modname {
             /// Inputs of one step (clamped to their declared ranges on entry).
             #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -105,7 +107,6 @@ pub fn module(plan: &Plan) -> TokenStream {
                     #(#setters)*
                 }
                 /// One control period in real arithmetic.
-                #[allow(unused_mut, unused_assignments, clippy::needless_late_init)]
                 pub fn step(&mut self, inputs: Inputs) -> Outputs {
                     #(#read_inputs)*
                     #(#load)*
@@ -154,8 +155,12 @@ fn block(prog: &Program, stmts: &[Stmt]) -> TokenStream {
         Stmt::If { cond: c, then, els } => {
             let c = cond(prog, c);
             let t = block(prog, then);
-            let e = block(prog, els);
-            quote! { if #c { #t } else { #e } }
+            if els.is_empty() {
+                quote! { if #c { #t } }
+            } else {
+                let e = block(prog, els);
+                quote! { if #c { #t } else { #e } }
+            }
         }
     });
     quote! { #(#parts)* }
@@ -209,19 +214,19 @@ fn cond(prog: &Program, c: &Cond) -> TokenStream {
         Cond::Cmp(op, a, b) => {
             let (a, b) = (expr(prog, a), expr(prog, b));
             let op: TokenStream = op.symbol().parse().unwrap_or_default();
-            quote! { (#a #op #b) }
+            quote! { #a #op #b }
         }
         Cond::And(a, b) => {
             let (a, b) = (cond(prog, a), cond(prog, b));
-            quote! { (#a & #b) }
+            quote! { ((#a) & (#b)) }
         }
         Cond::Or(a, b) => {
             let (a, b) = (cond(prog, a), cond(prog, b));
-            quote! { (#a | #b) }
+            quote! { ((#a) | (#b)) }
         }
         Cond::Not(a) => {
             let a = cond(prog, a);
-            quote! { (!#a) }
+            quote! { !(#a) }
         }
     }
 }

@@ -79,10 +79,12 @@ pub fn module(plan: &Plan) -> TokenStream {
         let ty = fixed_ty(plan.format(*id));
         quote! { #name: <#ty>::from_bits(#name), }
     });
+    let allows = super::allowed_lints();
     let period_us = Literal::u64_suffixed((prog.period * 1e6).round() as u64);
 
     quote! {
         #[doc = #doc]
+        #[allow(#allows)]
         pub mod #modname {
             /// Inputs of one step. Each is clamped to its declared range on entry.
             #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -126,9 +128,6 @@ pub fn module(plan: &Plan) -> TokenStream {
                 }
 
                 /// One control period: reads the inputs, updates the states, returns the outputs.
-                #[allow(unused_mut, unused_assignments, unused_parens, clippy::let_and_return,
-                        clippy::unnecessary_cast, clippy::identity_op, clippy::needless_late_init,
-                        clippy::nonminimal_bool, clippy::double_parens)]
                 pub fn step(&mut self, inputs: Inputs) -> Outputs {
                     #(#load_states)*
                     #(#decl_outputs)*

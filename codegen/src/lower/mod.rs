@@ -17,7 +17,6 @@
 //!   unnecessary are not emitted. Inputs are clamped to their declared range on entry.
 
 pub mod lir;
-#[path = "/tmp/sa_stub.rs"]
 pub mod shift_add;
 pub mod target;
 
@@ -460,7 +459,7 @@ impl<'a> Lowerer<'a> {
     }
 
     /// `v` re-expressed with `frac` fraction bits.
-    fn to_frac(&mut self, v: ValId, frac: i32, span: Span, out: &mut Vec<LStmt>) -> Result<ValId> {
+    fn rescale(&mut self, v: ValId, frac: i32, span: Span, out: &mut Vec<LStmt>) -> Result<ValId> {
         let f = self.v(v).frac;
         if frac >= f {
             self.shl(v, (frac - f) as u32, span, out)
@@ -524,7 +523,7 @@ impl<'a> Lowerer<'a> {
                     let mut v = self.expr(value, 0, out)?;
                     let x = self.v(v).clone();
                     if let Some(p) = sig.pin {
-                        v = self.to_frac(v, p.frac, *span, out)?;
+                        v = self.rescale(v, p.frac, *span, out)?;
                         let y = self.v(v).clone();
                         if !p.ty.holds(y.lo, y.hi) {
                             return Err(Diag::new(
@@ -623,7 +622,7 @@ impl<'a> Lowerer<'a> {
             );
             return Ok(());
         };
-        let mut v = self.to_frac(v, q.frac, span, out)?;
+        let mut v = self.rescale(v, q.frac, span, out)?;
         let (lo, hi) = self.bounds(target);
         let y = self.v(v).clone();
         let mut err = y.err;
@@ -798,8 +797,8 @@ impl<'a> Lowerer<'a> {
             }
             f -= 1;
         };
-        let a = self.to_frac(a, f, span, out)?;
-        let b = self.to_frac(b, f, span, out)?;
+        let a = self.rescale(a, f, span, out)?;
+        let b = self.rescale(b, f, span, out)?;
         let a = self.cast(a, ty, out);
         let b = self.cast(b, ty, out);
         Ok((a, b, f, ty))

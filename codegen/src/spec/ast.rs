@@ -37,7 +37,7 @@ pub enum Item {
         bits: syn::LitInt,
     },
     /// `input`, `state` or `output` declaration.
-    Signal(SignalDecl),
+    Signal(Box<SignalDecl>),
     /// `param` or `const` declaration.
     Constant(ConstDecl),
     /// `step { ... }` — the update body.

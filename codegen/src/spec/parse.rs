@@ -94,7 +94,7 @@ fn parse_item(input: ParseStream) -> syn::Result<Item> {
             None
         };
         input.parse::<Token![;]>()?;
-        Ok(Item::Signal(SignalDecl {
+        Ok(Item::Signal(Box::new(SignalDecl {
             attrs,
             kind,
             kw_span,
@@ -102,7 +102,7 @@ fn parse_item(input: ParseStream) -> syn::Result<Item> {
             range,
             unit,
             init,
-        }))
+        })))
     } else if la.peek(kw::param) || la.peek(Token![const]) {
         let is_param = if input.peek(kw::param) {
             input.parse::<kw::param>()?;

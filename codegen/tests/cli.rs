@@ -1,0 +1,169 @@
+//! End-to-end tests of the `qloop` binary: exit codes, diagnostics, generated text.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn qloop(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_qloop"))
+        .args(args)
+        .output()
+        .expect("run qloop")
+}
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn spec(name: &str) -> String {
+    root()
+        .join("verified/specs")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+fn fixture(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+#[test]
+fn check_prints_the_q_format_table() {
+    let o = qloop(&["check", &spec("koren_masory_1981.qloop")]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    for col in ["signal", "range", "Q-format", "LSB", "max |error|"] {
+        assert!(out.contains(col), "missing column {col}:\n{out}");
+    }
+    for sig in ["fc", "km", "kc", "u", "feed", "em", "ec"] {
+        assert!(
+            out.lines()
+                .any(|l| l.split_whitespace().next() == Some(sig)),
+            "no row for {sig}:\n{out}"
+        );
+    }
+    assert!(out.contains("Q(i32, 28)"), "{out}");
+}
+
+/// The `step` function's text in a generated module.
+fn step_body(src: &str) -> &str {
+    let start = src.find("pub fn step(").expect("step present");
+    let rest = &src[start..];
+    // `step` is the last method: it ends where the impl block closes.
+    let end = rest.find("\n        }\n    }\n}").expect("end of step");
+    &rest[..end]
+}
+
+#[test]
+fn generated_step_has_no_division_modulo_or_float() {
+    for s in ["koren_masory_1981.qloop", "acc_fixed_gain.qloop"] {
+        let o = qloop(&["gen", &spec(s), "--lang", "rust"]);
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+        let src = text(&o.stdout);
+        let step = step_body(&src);
+        assert!(
+            step.contains("<<") || step.contains(">>"),
+            "no shifts in {s}?"
+        );
+        for bad in ["/", "%", "f32", "f64", "unwrap", "expect", "panic", "["] {
+            assert!(!step.contains(bad), "`{bad}` in step of {s}:\n{step}");
+        }
+        assert!(src.contains("pub const fn new()") && src.contains("pub struct Controller"));
+        assert!(src.contains("::fixed::FixedI32<"), "fixed types at the API");
+    }
+}
+
+#[test]
+fn division_exits_2_naming_line_and_column() {
+    let f = fixture("division.qloop");
+    let o = qloop(&["check", &f]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = text(&o.stderr);
+    // `kc = 1.25 / fc;` is line 8; the `/` is column 19.
+    assert!(err.contains("division.qloop:8:19"), "{err}");
+    assert!(err.contains("division is not allowed"), "{err}");
+    assert!(
+        err.contains("eqs. 12-13"),
+        "help cites the integrating form: {err}"
+    );
+    let o = qloop(&["gen", &f]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(o.stdout.is_empty(), "no partial output on error");
+}
+
+#[test]
+fn unknown_name_and_missing_range_exit_2() {
+    let o = qloop(&["check", &fixture("unknown_name.qloop")]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = text(&o.stderr);
+    assert!(
+        err.contains("unknown name `gain`") && err.contains(":6:18"),
+        "{err}"
+    );
+    let o = qloop(&["check", &fixture("missing_range.qloop")]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = text(&o.stderr);
+    assert!(
+        err.contains("input `fc` has no range") && err.contains(":3:11"),
+        "{err}"
+    );
+}
+
+#[test]
+fn unreadable_file_and_unknown_target_exit_2() {
+    let o = qloop(&["check", "/nonexistent/x.qloop"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("cannot read"));
+    let o = qloop(&["check", &spec("acc_fixed_gain.qloop"), "--target", "z80"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("known targets"));
+}
+
+#[test]
+fn gen_writes_output_file_atomically() {
+    let dir = std::env::temp_dir().join(format!("qloop-gen-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("acc.rs");
+    let o = qloop(&[
+        "gen",
+        &spec("acc_fixed_gain.qloop"),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let written = std::fs::read_to_string(&out).unwrap();
+    let stdout = text(&qloop(&["gen", &spec("acc_fixed_gain.qloop")]).stdout);
+    assert_eq!(written, stdout);
+    let leftovers: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().contains(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "temporary files left behind");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn demo_writes_check_and_code() {
+    let dir = std::env::temp_dir().join(format!("qloop-demo-{}", std::process::id()));
+    let o = qloop(&["demo", "--out", dir.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    for f in [
+        "check.txt",
+        "koren_masory_1981.rs",
+        "koren_masory_1981_ref.rs",
+        "koren_masory_1981.qloop",
+    ] {
+        let p = dir.join(f);
+        assert!(p.exists(), "{f} missing");
+        assert!(std::fs::metadata(&p).unwrap().len() > 100, "{f} too small");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
