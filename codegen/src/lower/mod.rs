@@ -421,7 +421,13 @@ impl<'a> Lowerer<'a> {
             return Ok(v);
         }
         let x = self.v(v).clone();
-        let (lo, hi) = (x.lo << k, x.hi << k);
+        let too_wide = || {
+            Diag::new(span, "an intermediate needs more than 64 bits").help(
+                "narrow the declared ranges, or pin coarser formats with `#[q(..)]` / `#[lsb(..)]`",
+            )
+        };
+        let lo = shl_exact(x.lo, k as i32).ok_or_else(too_wide)?;
+        let hi = shl_exact(x.hi, k as i32).ok_or_else(too_wide)?;
         let ty = self.working(lo.min(x.lo), hi.max(x.hi), span)?;
         let c = self.cast(v, ty, out);
         Ok(self.push(Op::Shl(c, k), ty, x.frac + k as i32, lo, hi, x.err, out))
@@ -773,16 +779,19 @@ impl<'a> Lowerer<'a> {
     ) -> Result<(ValId, ValId, i32, IntTy)> {
         let (x, y) = (self.v(a).clone(), self.v(b).clone());
         let mut f = x.frac.max(y.frac);
-        let at = |v: &Val, f: i32| -> (i128, i128) {
+        let at = |v: &Val, f: i32| -> Option<(i128, i128)> {
             if f >= v.frac {
-                (v.lo << (f - v.frac), v.hi << (f - v.frac))
+                Some((shl_exact(v.lo, f - v.frac)?, shl_exact(v.hi, f - v.frac)?))
             } else {
-                (v.lo >> (v.frac - f), (v.hi >> (v.frac - f)) + 1)
+                let k = (v.frac - f).min(127) as u32;
+                Some((v.lo >> k, (v.hi >> k) + 1))
             }
         };
         let ty = loop {
-            let (xl, xh) = at(&x, f);
-            let (yl, yh) = at(&y, f);
+            let (Some((xl, xh)), Some((yl, yh))) = (at(&x, f), at(&y, f)) else {
+                f -= 1;
+                continue;
+            };
             let (rl, rh) = op.range((xl, xh), (yl, yh));
             let lo = xl.min(yl).min(rl);
             let hi = xh.max(yh).max(rh);
@@ -888,26 +897,22 @@ impl<'a> Lowerer<'a> {
         span: Span,
         out: &mut Vec<LStmt>,
     ) -> Result<ValId> {
+        // If the exact product would exceed 64 bits, drop fraction bits from x first (with
+        // the program's rounding; the error is counted) until it fits.
+        let mut x = x;
+        loop {
+            let xv = self.v(x).clone();
+            let xm = xv.lo.abs().max(xv.hi.abs()).max(1);
+            let (m, _) = quantise(c, &xv);
+            let need = 128 - (xm * m.abs().max(1)).leading_zeros() + 2;
+            if need <= 64 || xm == 1 {
+                break;
+            }
+            x = self.round(x, need - 64, span, out)?;
+        }
         let xv = self.v(x).clone();
         let mx = xv.lo.abs().max(xv.hi.abs()) as f64 * pow2(-xv.frac);
-        // Quantise c as m·2^-k, fine enough that |c − m·2^-k|·max|x| ≤ ½ LSB of x.
-        let tol = pow2(-xv.frac - 1);
-        let (mut m, mut k) = (0i128, 0i32);
-        for kk in -64..=120 {
-            let mm = (c * pow2(kk)).round();
-            if mm.abs() >= pow2(62) {
-                break;
-            }
-            m = mm as i128;
-            k = kk;
-            if (c - mm * pow2(-kk)).abs() * mx <= tol {
-                break;
-            }
-        }
-        while m != 0 && m % 2 == 0 {
-            m /= 2;
-            k -= 1;
-        }
+        let (m, k) = quantise(c, &xv);
         let q = m as f64 * pow2(-k);
         let err = (q.abs() * xv.err) + (mx + xv.err) * (q - c).abs();
         let frac = xv.frac + k;
@@ -1037,6 +1042,42 @@ impl<'a> Lowerer<'a> {
         self.vals[id.0].boolean = true;
         Ok(id)
     }
+}
+
+/// `v · 2^k` if it fits comfortably in an `i128` (the analysis only needs up to 2^66).
+fn shl_exact(v: i128, k: i32) -> Option<i128> {
+    if !(0..100).contains(&k) {
+        return None;
+    }
+    let r = v.checked_mul(1i128 << k)?;
+    (r.unsigned_abs() < 1u128 << 100).then_some(r)
+}
+
+/// Quantises a constant factor `c` for a product with `x` as `m·2^-k` (`m` odd or zero), fine
+/// enough that |c − m·2^-k|·max|x| ≤ ½ LSB of x, with the fewest significant bits.
+fn quantise(c: f64, x: &Val) -> (i128, i32) {
+    if c == 0.0 {
+        return (0, 0);
+    }
+    let mx = x.lo.abs().max(x.hi.abs()) as f64 * pow2(-x.frac);
+    let tol = pow2(-x.frac - 1);
+    let (mut m, mut k) = (0i128, 0i32);
+    for kk in -64..=120 {
+        let mm = (c * pow2(kk)).round();
+        if mm.abs() >= pow2(62) {
+            break;
+        }
+        m = mm as i128;
+        k = kk;
+        if (c - mm * pow2(-kk)).abs() * mx <= tol {
+            break;
+        }
+    }
+    while m != 0 && m % 2 == 0 {
+        m /= 2;
+        k -= 1;
+    }
+    (m, k)
 }
 
 /// Binary operation kinds for range computation.
