@@ -20,6 +20,16 @@ quotient without dividing: E_c(i+1) = K - K_c(i)*K_m(i); K_c(i+1) = K_c(i) + C2*
 (eqs. 12-13). Write the quotient as a state updated that way, or, for a constant divisor, \
 multiply by its reciprocal (`x * 0.25`, not `x / 4.0`)";
 
+/// Names the generated code uses itself.
+const RESERVED: [&str; 6] = [
+    "inputs",
+    "Inputs",
+    "Outputs",
+    "States",
+    "Controller",
+    "Reference",
+];
+
 /// Checks a parsed spec and builds the IR.
 pub fn check(ast: &SpecAst) -> Result<Program> {
     Checker::default().run(ast)
@@ -96,7 +106,7 @@ impl Checker {
                     word = Some((b, bits.span()));
                 }
                 Item::Constant(c) => self.constant(c)?,
-                Item::Signal(s) => self.signal(s, word.map_or(32, |w| w.0))?,
+                Item::Signal(s) => self.signal(s)?,
                 Item::Step(block) => {
                     if body.is_some() {
                         return Err(Diag::new(block.span(), "a controller has one `step` body"));
@@ -161,6 +171,10 @@ impl Checker {
                 format!("`{n}` is a built-in function"),
             ));
         }
+        if n.starts_with('_') || RESERVED.contains(&n.as_str()) {
+            return Err(Diag::new(name.span(), format!("`{n}` is reserved for generated code"))
+                .help("names may not start with `_` or be one of: inputs, Inputs, Outputs, States, Controller, Reference"));
+        }
         Ok(())
     }
 
@@ -183,7 +197,7 @@ impl Checker {
         Ok(())
     }
 
-    fn signal(&mut self, s: &SignalDecl, word: u32) -> Result<()> {
+    fn signal(&mut self, s: &SignalDecl) -> Result<()> {
         self.define(&s.name)?;
         let name = s.name.to_string();
         let (pin, lsb) = fmt_attrs(&s.attrs)?;
@@ -252,7 +266,6 @@ impl Checker {
                 ));
             }
         }
-        let _ = word;
         let id = SigId(self.signals.len());
         self.signals.push(Signal {
             name: name.clone(),
@@ -804,4 +817,160 @@ fn to_snake(s: &str) -> String {
         out.extend(c.to_lowercase());
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::spec::parse::parse_str;
+
+    /// Compiles `body` inside a minimal controller; returns the error's message and
+    /// line:col (line 1 is the `controller` line).
+    fn err(items: &str) -> (String, usize, usize) {
+        let src = format!("controller t {{\n{items}\n}}\n");
+        let d = parse_str(&src)
+            .and_then(|a| super::check(&a))
+            .err()
+            .unwrap_or_else(|| panic!("accepted:\n{src}"));
+        let (l, c) = d.line_col();
+        (d.message, l, c)
+    }
+
+    const HEAD: &str = "period 0.1 \"s\";\ninput x: [0.0, 1.0];\noutput y;";
+
+    #[test]
+    fn rejections_name_the_place() {
+        let cases: &[(&str, &str, usize, usize)] = &[
+            ("step { y = x / 2.0; }", "division is not allowed", 5, 14),
+            ("step { y = x % 2.0; }", "division is not allowed", 5, 14),
+            (
+                "step { y = x; y /= 2.0; }",
+                "division is not allowed",
+                5,
+                17,
+            ),
+            ("step { y = x * k; }", "unknown name `k`", 5, 16),
+            (
+                "step { let _t = x; y = _t; }",
+                "reserved for generated code",
+                5,
+                12,
+            ),
+            (
+                "step { let inputs = x; y = inputs; }",
+                "reserved for generated code",
+                5,
+                12,
+            ),
+            ("step { x = 1.0; y = x; }", "input `x` is read-only", 5, 8),
+            (
+                "step { let a = x; a = 2.0; y = a; }",
+                "`a` is a `let` binding",
+                5,
+                19,
+            ),
+            (
+                "step { if x > 0.5 { y = x; } }",
+                "output `y` is not assigned on every path",
+                4,
+                8,
+            ),
+            (
+                "step { y = y + x; }",
+                "output `y` is read before it is assigned",
+                5,
+                12,
+            ),
+            ("step { y = x << 2; }", "unsupported operator", 5, 14),
+            ("step { y = sqrt(x); }", "unknown function `sqrt`", 5, 12),
+            (
+                "step { y = clamp(x, 1.0, 0.0); }",
+                "clamp bounds are reversed",
+                5,
+                12,
+            ),
+            (
+                "step { let a = x; let a = x; y = a; }",
+                "`a` is already defined",
+                5,
+                23,
+            ),
+            (
+                "state s: [0.0, 1.0];\nstep { y = x; }",
+                "state `s` has no initial value",
+                5,
+                7,
+            ),
+            (
+                "state s: [0.0, 1.0] = 2.0;\nstep { y = x; }",
+                "outside the range",
+                5,
+                23,
+            ),
+            (
+                "state s: [1.0, 0.0] = 0.5;\nstep { y = x; }",
+                "empty range",
+                5,
+                10,
+            ),
+            (
+                "#[q(i32, 40)] state s: [0.0, 1.0] = 0.5;\nstep { y = x; }",
+                "cannot cross the API",
+                5,
+                21,
+            ),
+            (
+                "#[q(f32, 4)] state s: [0.0, 1.0] = 0.5;\nstep { y = x; }",
+                "expected `#[q(TYPE, FRAC)]`",
+                5,
+                1,
+            ),
+            (
+                "#[inline] state s: [0.0, 1.0] = 0.5;\nstep { y = x; }",
+                "unknown attribute",
+                5,
+                1,
+            ),
+            ("step { y = x; }\nstep { y = x; }", "one `step` body", 6, 6),
+            (
+                "rounding sideways;\nstep { y = x; }",
+                "unknown rounding `sideways`",
+                5,
+                10,
+            ),
+            (
+                "word 12;\nstep { y = x; }",
+                "word width must be 8, 16, 32 or 64",
+                5,
+                6,
+            ),
+            (
+                "prove { invariant y < 1.0; }\nstep { y = x; }",
+                "not supported yet",
+                5,
+                1,
+            ),
+            ("step { y = if x > 0.5 { x }; }", "needs an `else`", 5, 12),
+        ];
+        for (items, msg, line, col) in cases {
+            let (m, l, c) = err(&format!("{HEAD}\n{items}"));
+            assert!(m.contains(msg), "{items}: got `{m}`, want `{msg}`");
+            assert_eq!((l, c), (*line, *col), "{items}: {m}");
+        }
+    }
+
+    #[test]
+    fn missing_period_and_step() {
+        let (m, l, _) = err("input x: [0.0, 1.0];\noutput y;\nstep { y = x; }");
+        assert!(m.contains("missing sample period") && l == 1, "{m}");
+        let (m, ..) = err("period 1 \"ms\";\ninput x: [0.0, 1.0];");
+        assert!(m.contains("missing `step"), "{m}");
+    }
+
+    #[test]
+    fn constants_fold_and_period_is_a_name() {
+        let src = "controller t {\nperiod 2 \"ms\";\nconst A: 3.0 * period - 0.5 * 0.002;\ninput x: [0.0, 1.0];\noutput y;\nstep { y = x * A; }\n}";
+        let p = super::check(&parse_str(src).unwrap()).unwrap();
+        assert_eq!(p.period, 0.002);
+        assert_eq!(p.constants[0].value, 3.0 * 0.002 - 0.5 * 0.002);
+    }
 }

@@ -165,8 +165,8 @@ assuming both take the same branches."
     o
 }
 
-/// Compact number formatting for tables.
-fn g(v: f64) -> String {
+/// Compact number formatting for tables and generated docs.
+pub fn g(v: f64) -> String {
     if v == 0.0 {
         "0".into()
     } else if v.abs() >= 1e-3 && v.abs() < 1e6 {

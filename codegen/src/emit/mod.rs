@@ -5,6 +5,7 @@ pub mod rust;
 
 use crate::ir::{SigId, SigKind};
 use crate::lower::Plan;
+use crate::report::g;
 use proc_macro2::TokenStream;
 
 /// Formats emitted tokens as Rust source (rustfmt-like, via prettyplease).
@@ -39,8 +40,8 @@ pub fn module_doc(plan: &Plan, what: &str) -> String {
             "| `{}` | {} | [{}, {}] {} | {} | {:.3e} | {:.3e} |\n",
             s.name,
             kind_name(s.kind),
-            sm.range.0,
-            sm.range.1,
+            g(sm.range.0),
+            g(sm.range.1),
             s.unit.as_deref().unwrap_or(""),
             sm.format,
             sm.format.lsb(),
@@ -72,8 +73,8 @@ pub fn sig_doc(plan: &Plan, id: SigId) -> String {
     }
     d.push_str(&format!(
         "Range [{}, {}] {}, format {}.",
-        sm.range.0,
-        sm.range.1,
+        g(sm.range.0),
+        g(sm.range.1),
         s.unit.as_deref().unwrap_or(""),
         sm.format
     ));

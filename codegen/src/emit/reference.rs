@@ -204,7 +204,7 @@ fn expr(prog: &Program, e: &Expr) -> TokenStream {
         Expr::Select(c, a, b) => {
             // Evaluate the condition and both arms (as the plan does), then select.
             let (c, a, b) = (cond(prog, c), x(a), x(b));
-            quote! { { let c: bool = #c; let a: f64 = #a; let b: f64 = #b; if c { a } else { b } } }
+            quote! { { let _c: bool = #c; let _a: f64 = #a; let _b: f64 = #b; if _c { _a } else { _b } } }
         }
     }
 }
