@@ -5,6 +5,8 @@
 //! [`lower`] (range analysis, Q-formats, shift-add, cost model → integer plan) → [`emit`]
 //! (Rust; reference) and [`interp`] (bit-exact and real interpreters) → [`report`].
 
+#![deny(missing_docs)]
+
 pub mod check;
 pub mod diag;
 pub mod emit;
