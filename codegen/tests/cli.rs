@@ -49,7 +49,7 @@ fn check_prints_the_q_format_table() {
             "no row for {sig}:\n{out}"
         );
     }
-    assert!(out.contains("Q(i32, 28)"), "{out}");
+    assert!(out.contains("Q(i16, 12)"), "{out}");
 }
 
 /// The `step` function's text in a generated module.

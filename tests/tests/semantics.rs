@@ -8,7 +8,7 @@
 //!   `qloop check` reports, and that bound is not vacuous (< 1% of the signal's range).
 
 use fixed::types::extra::*;
-use fixed::{FixedI32, FixedI64};
+use fixed::{FixedI16, FixedI64};
 use proptest::prelude::*;
 use qloop::interp::{step_fixed, step_real};
 use qloop::ir::{SigId, SigKind};
@@ -36,9 +36,9 @@ fn bounds(p: &Plan, name: &str) -> (i128, i128) {
     p.raw_bounds(sig(p, name)).unwrap()
 }
 
-fn in_bounds(p: &Plan, name: &str) -> impl Strategy<Value = i32> {
+fn in_bounds(p: &Plan, name: &str) -> impl Strategy<Value = i16> {
     let (lo, hi) = bounds(p, name);
-    (lo as i32)..=(hi as i32)
+    (lo as i16)..=(hi as i16)
 }
 
 fn phys(p: &Plan, name: &str, raw: i128) -> f64 {
@@ -94,12 +94,12 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(4000))]
 
     #[test]
-    fn km81_generated_matches_interpreter(fc in any::<i32>(), km in in_bounds(km81_plan(), "km"),
+    fn km81_generated_matches_interpreter(fc in any::<i16>(), km in in_bounds(km81_plan(), "km"),
                                           kc in in_bounds(km81_plan(), "kc"), u in in_bounds(km81_plan(), "u")) {
         let p = km81_plan();
         let mut c = km81::Controller::new();
-        c.set_states(km81::States { km: FixedI32::from_bits(km), kc: FixedI32::from_bits(kc), u: FixedI32::from_bits(u) });
-        let out = c.step(km81::Inputs { fc: FixedI32::<U28>::from_bits(fc) });
+        c.set_states(km81::States { km: FixedI16::from_bits(km), kc: FixedI16::from_bits(kc), u: FixedI16::from_bits(u) });
+        let out = c.step(km81::Inputs { fc: FixedI16::from_bits(fc) });
         let mut v = vars_fixed(p, &[("fc", fc.into()), ("km", km.into()), ("kc", kc.into()), ("u", u.into())]);
         let r = step_fixed(p, &mut v);
         prop_assert!(r.is_ok(), "range analysis violated: {:?}", r);
@@ -116,8 +116,8 @@ proptest! {
         let p = km81_plan();
         // Fixed-point step, generated code.
         let mut c = km81::Controller::new();
-        c.set_states(km81::States { km: FixedI32::from_bits(km), kc: FixedI32::from_bits(kc), u: FixedI32::from_bits(u) });
-        let out = c.step(km81::Inputs { fc: FixedI32::<U28>::from_bits(fc) });
+        c.set_states(km81::States { km: FixedI16::from_bits(km), kc: FixedI16::from_bits(kc), u: FixedI16::from_bits(u) });
+        let out = c.step(km81::Inputs { fc: FixedI16::from_bits(fc) });
         // The same start, exactly, in the generated f64 reference.
         let (fcx, kmx, kcx, ux) = (phys(p, "fc", fc.into()), phys(p, "km", km.into()), phys(p, "kc", kc.into()), phys(p, "u", u.into()));
         let mut r = km81_ref::Reference::new();
@@ -145,11 +145,11 @@ proptest! {
     }
 
     #[test]
-    fn acc_generated_matches_interpreter(fc in any::<i32>(), u in in_bounds(acc_plan(), "u")) {
+    fn acc_generated_matches_interpreter(fc in any::<i16>(), u in in_bounds(acc_plan(), "u")) {
         let p = acc_plan();
         let mut c = acc::Controller::new();
-        c.set_states(acc::States { u: FixedI32::from_bits(u) });
-        let out = c.step(acc::Inputs { fc: FixedI32::from_bits(fc) });
+        c.set_states(acc::States { u: FixedI16::from_bits(u) });
+        let out = c.step(acc::Inputs { fc: FixedI16::from_bits(fc) });
         let mut v = vars_fixed(p, &[("fc", fc.into()), ("u", u.into())]);
         prop_assert!(step_fixed(p, &mut v).is_ok());
         prop_assert_eq!(i128::from(c.states().u.to_bits()), v[sig(p, "u").0]);
@@ -160,8 +160,8 @@ proptest! {
     fn acc_fixed_within_reported_bound_of_f64(fc in in_bounds_input(acc_plan(), "fc"), u in in_bounds(acc_plan(), "u")) {
         let p = acc_plan();
         let mut c = acc::Controller::new();
-        c.set_states(acc::States { u: FixedI32::from_bits(u) });
-        let out = c.step(acc::Inputs { fc: FixedI32::from_bits(fc) });
+        c.set_states(acc::States { u: FixedI16::from_bits(u) });
+        let out = c.step(acc::Inputs { fc: FixedI16::from_bits(fc) });
         let mut r = acc_ref::Reference::new();
         r.set_states(acc_ref::States { u: phys(p, "u", u.into()) });
         let rout = r.step(acc_ref::Inputs { fc: phys(p, "fc", fc.into()) });
@@ -173,10 +173,10 @@ proptest! {
 }
 
 /// Raw values of an input inside its declared range.
-fn in_bounds_input(p: &Plan, name: &str) -> impl Strategy<Value = i32> {
+fn in_bounds_input(p: &Plan, name: &str) -> impl Strategy<Value = i16> {
     let q = p.format(sig(p, name));
     let (lo, hi) = p.prog.sig(sig(p, name)).range.unwrap();
-    (q.raw_ceil(lo) as i32)..=(q.raw_floor(hi) as i32)
+    (q.raw_ceil(lo) as i16)..=(q.raw_floor(hi) as i16)
 }
 
 /// The reported bound is tight enough to mean something: over many steps, the largest
@@ -193,21 +193,22 @@ fn km81_bound_is_reasonably_tight() {
         rng ^= rng << 17;
         lo + (rng as i128).rem_euclid(hi - lo + 1)
     };
-    let (fl, fh) = (0, (5i128) << 28);
+    let fcq = p.format(sig(p, "fc"));
+    let (fl, fh) = (fcq.raw_ceil(0.0), fcq.raw_floor(5.0));
     for _ in 0..20000 {
-        let fc = next(fl, fh) as i32;
+        let fc = next(fl, fh) as i16;
         let [km, kc, u] = ["km", "kc", "u"].map(|n| {
             let (lo, hi) = bounds(p, n);
-            next(lo, hi) as i32
+            next(lo, hi) as i16
         });
         let mut c = km81::Controller::new();
         c.set_states(km81::States {
-            km: FixedI32::from_bits(km),
-            kc: FixedI32::from_bits(kc),
-            u: FixedI32::from_bits(u),
+            km: FixedI16::from_bits(km),
+            kc: FixedI16::from_bits(kc),
+            u: FixedI16::from_bits(u),
         });
         let _ = c.step(km81::Inputs {
-            fc: FixedI32::from_bits(fc),
+            fc: FixedI16::from_bits(fc),
         });
         let mut r = km81_ref::Reference::new();
         r.set_states(km81_ref::States {
