@@ -76,7 +76,7 @@ fn generated_step_has_no_division_modulo_or_float() {
             assert!(!step.contains(bad), "`{bad}` in step of {s}:\n{step}");
         }
         assert!(src.contains("pub const fn new()") && src.contains("pub struct Controller"));
-        assert!(src.contains("::fixed::FixedI32<"), "fixed types at the API");
+        assert!(src.contains("::fixed::FixedI16<"), "fixed types at the API");
     }
 }
 
