@@ -31,6 +31,10 @@ pub struct Program {
     pub signals: Vec<Signal>,
     /// The update body.
     pub body: Vec<Stmt>,
+    /// Invariants over the states (`prove { invariant .. }`).
+    pub invariants: Vec<Invariant>,
+    /// Step properties (`prove { property .. }`).
+    pub properties: Vec<Property>,
 }
 
 impl Program {
@@ -104,6 +108,11 @@ pub struct Signal {
     pub pin: Option<QFormat>,
     /// Requested resolution, `#[lsb(1e-3)]`: the format must have LSB ≤ this.
     pub lsb: Option<f64>,
+    /// A claimed range, `#[range(LO, HI)]` on a `let`: trusted when sizing the computation,
+    /// and an obligation for the prover.
+    pub claim: Option<(f64, f64)>,
+    /// `#[unsaturated]` on a state: stores do not clamp; the range is an obligation instead.
+    pub unsaturated: bool,
     /// Doc lines.
     pub docs: Vec<String>,
     /// Declaration site.
@@ -218,4 +227,91 @@ pub enum Cond {
     Or(Box<Cond>, Box<Cond>),
     /// `!a`
     Not(Box<Cond>),
+}
+
+/// Which side of a step a property reads a signal from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum When {
+    /// Before the step: states' old values, inputs (clamped to their ranges).
+    Pre,
+    /// After the step: `next(state)`, outputs.
+    Post,
+}
+
+/// An expression in a property, evaluated exactly (no rounding) on the fixed-point values.
+#[derive(Clone, Debug)]
+pub enum PExpr {
+    /// A constant, taken at its exact binary (f64) value.
+    Const(f64),
+    /// A signal's value before or after the step.
+    Sig(SigId, When),
+    /// A free parameter (index into [`Property::params`]).
+    Param(usize),
+    /// `-a`
+    Neg(Box<PExpr>),
+    /// `a + b`
+    Add(Box<PExpr>, Box<PExpr>),
+    /// `a - b`
+    Sub(Box<PExpr>, Box<PExpr>),
+    /// `a * b`
+    Mul(Box<PExpr>, Box<PExpr>),
+    /// `abs(a)`
+    Abs(Box<PExpr>),
+    /// `min(a, b)`
+    Min(Box<PExpr>, Box<PExpr>),
+    /// `max(a, b)`
+    Max(Box<PExpr>, Box<PExpr>),
+}
+
+/// A condition in a property.
+#[derive(Clone, Debug)]
+pub enum PCond {
+    /// `a OP b`
+    Cmp(CmpOp, PExpr, PExpr),
+    /// `a && b`
+    And(Box<PCond>, Box<PCond>),
+    /// `a || b`
+    Or(Box<PCond>, Box<PCond>),
+    /// `!a`
+    Not(Box<PCond>),
+}
+
+/// A free parameter of a property: universally quantified over its range.
+#[derive(Clone, Debug)]
+pub struct FreeParam {
+    /// Name.
+    pub name: String,
+    /// Range.
+    pub range: (f64, f64),
+}
+
+/// `invariant NAME: COND;` — over the states; must hold initially and be inductive.
+#[derive(Clone, Debug)]
+pub struct Invariant {
+    /// Name.
+    pub name: String,
+    /// Doc lines.
+    pub docs: Vec<String>,
+    /// Condition over pre-state values.
+    pub cond: PCond,
+    /// Site.
+    pub span: Span,
+}
+
+/// `property NAME { .. }` — for all inputs in range, states satisfying the invariants and
+/// parameters in range: the assumptions imply the conclusions after one step.
+#[derive(Clone, Debug)]
+pub struct Property {
+    /// Name.
+    pub name: String,
+    /// Doc lines.
+    pub docs: Vec<String>,
+    /// Free parameters.
+    pub params: Vec<FreeParam>,
+    /// Premises.
+    pub assumes: Vec<PCond>,
+    /// Conclusions.
+    pub ensures: Vec<PCond>,
+    /// Site.
+    pub span: Span,
 }

@@ -32,6 +32,9 @@ pub struct Val {
     pub name: Option<String>,
     /// A boolean (comparison) value; `ty`, `frac`, `lo`, `hi` are then meaningless.
     pub boolean: bool,
+    /// The interval `[lo, hi]` is trusted from a user claim (`#[range]`, `#[unsaturated]`)
+    /// rather than derived from the operands: only a whole-program proof can discharge it.
+    pub claimed: bool,
 }
 
 /// An integer operation. Operand types equal the result type except where noted.

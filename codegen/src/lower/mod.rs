@@ -389,9 +389,65 @@ impl<'a> Lowerer<'a> {
             err,
             name: None,
             boolean: false,
+            claimed: false,
         });
         out.push(LStmt::Def(id));
         id
+    }
+
+    /// Like [`Self::push`], but a range that does not fit `ty` is cut to `ty` and marked as
+    /// claimed (only used where a user claim sized the type).
+    #[allow(clippy::too_many_arguments)]
+    fn push_fit(
+        &mut self,
+        op: Op,
+        ty: IntTy,
+        frac: i32,
+        lo: i128,
+        hi: i128,
+        err: f64,
+        out: &mut Vec<LStmt>,
+    ) -> ValId {
+        if ty.holds(lo, hi) {
+            return self.push(op, ty, frac, lo, hi, err, out);
+        }
+        let (l, h) = (lo.max(ty.min()), hi.min(ty.max()));
+        let (l, h) = if l <= h { (l, h) } else { (ty.min(), ty.max()) };
+        let id = self.push(op, ty, frac, l, h, err, out);
+        self.vals[id.0].claimed = true;
+        id
+    }
+
+    /// Narrows `v`'s interval to a user claim `[lo, hi]` (physical), in a working type sized by
+    /// the claim. The new value is marked claimed if the claim is narrower than the analysis.
+    fn claim(
+        &mut self,
+        v: ValId,
+        (lo, hi): (f64, f64),
+        span: Span,
+        out: &mut Vec<LStmt>,
+    ) -> Result<ValId> {
+        let x = self.v(v).clone();
+        let q = QFormat {
+            ty: x.ty,
+            frac: x.frac,
+        };
+        let (cl, ch) = (q.raw_floor(lo).max(x.lo), q.raw_ceil(hi).min(x.hi));
+        if cl > ch {
+            return Err(Diag::new(
+                span,
+                format!(
+                    "the claimed range [{lo}, {hi}] misses every value the expression can take"
+                ),
+            ));
+        }
+        if (cl, ch) == (x.lo, x.hi) {
+            return Ok(v);
+        }
+        let ty = self.working(cl, ch, span)?;
+        let id = self.push(Op::Cast(v), ty, x.frac, cl, ch, x.err, out);
+        self.vals[id.0].claimed = true;
+        Ok(id)
     }
 
     fn v(&self, id: ValId) -> &Val {
@@ -526,7 +582,20 @@ impl<'a> Lowerer<'a> {
             } => {
                 let sig = self.prog.sig(*target).clone();
                 if sig.kind == SigKind::Local {
-                    let mut v = self.expr(value, 0, out)?;
+                    let mut v = match (value, sig.claim) {
+                        (Expr::Mul(a, b, mspan), Some(claim)) => match (&**a, &**b) {
+                            (Expr::Const { value: c, name, .. }, x)
+                            | (x, Expr::Const { value: c, name, .. }) => {
+                                let xv = self.expr(x, 0, out)?;
+                                self.mul_const(xv, *c, name.clone(), Some(claim), *mspan, out)?
+                            }
+                            _ => self.expr(value, 0, out)?,
+                        },
+                        _ => self.expr(value, 0, out)?,
+                    };
+                    if let Some(claim) = sig.claim {
+                        v = self.claim(v, claim, sig.span, out)?;
+                    }
                     let x = self.v(v).clone();
                     if let Some(p) = sig.pin {
                         v = self.rescale(v, p.frac, *span, out)?;
@@ -632,7 +701,16 @@ impl<'a> Lowerer<'a> {
         let (lo, hi) = self.bounds(target);
         let y = self.v(v).clone();
         let mut err = y.err;
-        if y.lo < lo || y.hi > hi {
+        if self.prog.sig(target).unsaturated {
+            // No clamp: the declared range is a claim the prover must discharge.
+            if y.lo < lo || y.hi > hi {
+                let x = self.v(v).clone();
+                let (cl, ch) = (x.lo.max(lo).min(hi), x.hi.min(hi).max(lo));
+                let ty = self.working(cl, ch, span)?;
+                v = self.push(Op::Cast(v), ty, x.frac, cl, ch, x.err, out);
+                self.vals[v.0].claimed = true;
+            }
+        } else if y.lo < lo || y.hi > hi {
             v = self.clamp(v, lo, hi, out)?;
             if let Some((l, h)) = self.prog.sig(target).range {
                 let gap = (q.value(lo) - l).max(h - q.value(hi)).max(0.0);
@@ -681,7 +759,7 @@ impl<'a> Lowerer<'a> {
             Expr::Mul(a, b, span) => match (&**a, &**b) {
                 (Expr::Const { value, name, .. }, x) | (x, Expr::Const { value, name, .. }) => {
                     let xv = self.expr(x, ctx, out)?;
-                    self.mul_const(xv, *value, name.clone(), *span, out)
+                    self.mul_const(xv, *value, name.clone(), None, *span, out)
                 }
                 _ => {
                     let av = self.expr(a, ctx, out)?;
@@ -889,11 +967,13 @@ impl<'a> Lowerer<'a> {
     }
 
     /// Variable × constant: shift-add network, or the multiplier if the cost model says so.
+    #[allow(clippy::too_many_arguments)]
     fn mul_const(
         &mut self,
         x: ValId,
         c: f64,
         name: Option<String>,
+        claim: Option<(f64, f64)>,
         span: Span,
         out: &mut Vec<LStmt>,
     ) -> Result<ValId> {
@@ -942,7 +1022,15 @@ impl<'a> Lowerer<'a> {
                 .max(coefs[s].abs());
         }
         let xm = xv.lo.abs().max(xv.hi.abs());
-        let ty = self.working(-(xm * maxc), xm * maxc, span)?;
+        let ty = match claim {
+            // A claim on the product sizes the network: partial sums the claim does not cover
+            // become proof obligations.
+            Some((lo, hi)) => {
+                let q = QFormat { ty: xv.ty, frac };
+                self.working(q.raw_floor(lo).min(xv.lo), q.raw_ceil(hi).max(xv.hi), span)?
+            }
+            None => self.working(-(xm * maxc), xm * maxc, span)?,
+        };
         let bits = ty.bits;
         let sa_cost = plan.adders() as u32 * self.target.add_cost(bits)
             + plan.shifts() as u32 * self.target.shift_cost(bits)
@@ -983,7 +1071,7 @@ impl<'a> Lowerer<'a> {
                     return v;
                 }
                 let (lo, hi) = range(c << sh);
-                lw.push(Op::Shl(v, sh), ty, xv.frac, lo, hi, 0.0, out)
+                lw.push_fit(Op::Shl(v, sh), ty, xv.frac, lo, hi, 0.0, out)
             };
             let mut ta = term(av, ac, st.a_shift, self, out);
             let tb = term(bv, bc, st.b_shift, self, out);
@@ -994,7 +1082,7 @@ impl<'a> Lowerer<'a> {
             };
             if st.negate_a {
                 let (lo, hi) = range(ca);
-                ta = self.push(Op::Neg(ta), ty, xv.frac, lo, hi, 0.0, out);
+                ta = self.push_fit(Op::Neg(ta), ty, xv.frac, lo, hi, 0.0, out);
             }
             let (lo, hi) = range(coefs[s]);
             let op = if st.subtract {
@@ -1002,7 +1090,7 @@ impl<'a> Lowerer<'a> {
             } else {
                 Op::Add(ta, tb)
             };
-            step_vals.push(self.push(op, ty, xv.frac, lo, hi, 0.0, out));
+            step_vals.push(self.push_fit(op, ty, xv.frac, lo, hi, 0.0, out));
         }
         let mut r = match plan.result {
             shift_add::Operand::X => xw,
@@ -1015,16 +1103,16 @@ impl<'a> Lowerer<'a> {
         if plan.final_shift > 0 {
             coef <<= plan.final_shift;
             let (lo, hi) = range(coef);
-            r = self.push(Op::Shl(r, plan.final_shift), ty, xv.frac, lo, hi, 0.0, out);
+            r = self.push_fit(Op::Shl(r, plan.final_shift), ty, xv.frac, lo, hi, 0.0, out);
         }
         if plan.negate {
             coef = -coef;
             let (lo, hi) = range(coef);
-            r = self.push(Op::Neg(r), ty, xv.frac, lo, hi, 0.0, out);
+            r = self.push_fit(Op::Neg(r), ty, xv.frac, lo, hi, 0.0, out);
         }
         debug_assert_eq!(coef, m, "shift-add plan computes {coef}·x, wanted {m}·x");
         // Re-label the binary point: the network computed x·m; the value is x·m·2^-k.
-        Ok(self.push(Op::Cast(r), ty, frac, plo, phi, err, out))
+        Ok(self.push_fit(Op::Cast(r), ty, frac, plo, phi, err, out))
     }
 
     fn cond(&mut self, c: &Cond, out: &mut Vec<LStmt>) -> Result<ValId> {

@@ -1,6 +1,6 @@
 //! The spec's syntax tree, as parsed, with spans. Nothing here is checked yet.
 
-use proc_macro2::{Span, TokenStream};
+use proc_macro2::Span;
 use syn::{Attribute, Block, Expr, Ident, LitStr};
 
 /// A whole `controller NAME { ... }` item.
@@ -42,10 +42,10 @@ pub enum Item {
     Constant(ConstDecl),
     /// `step { ... }` — the update body.
     Step(Block),
-    /// `prove { ... }` — properties to prove (filled by the proofs issue).
+    /// `prove { ... }` — invariants and step properties to prove.
     Prove {
-        /// Raw tokens inside the braces.
-        tokens: TokenStream,
+        /// The items inside the braces.
+        items: Vec<PropItem>,
         /// The `prove` keyword.
         span: Span,
     },
@@ -105,4 +105,32 @@ pub struct ConstDecl {
     pub value: Expr,
     /// Physical unit.
     pub unit: Option<LitStr>,
+}
+
+/// One item of a `prove { .. }` block.
+#[derive(Clone)]
+pub enum PropItem {
+    /// `invariant NAME: COND;` over the states: holds initially and after every step.
+    Invariant {
+        /// Doc lines.
+        docs: Vec<String>,
+        /// Name.
+        name: Ident,
+        /// The condition.
+        cond: Expr,
+    },
+    /// `property NAME { forall P in [LO, HI]; assume COND; ensure COND; }`: a step property
+    /// over pre-state (`x`), post-state (`next(x)`), inputs, outputs and free parameters.
+    Property {
+        /// Doc lines.
+        docs: Vec<String>,
+        /// Name.
+        name: Ident,
+        /// Free parameters and their ranges.
+        foralls: Vec<(Ident, RangeAst)>,
+        /// Premises.
+        assumes: Vec<Expr>,
+        /// Conclusions.
+        ensures: Vec<Expr>,
+    },
 }

@@ -20,6 +20,11 @@ mod kw {
     syn::custom_keyword!(param);
     syn::custom_keyword!(step);
     syn::custom_keyword!(prove);
+    syn::custom_keyword!(invariant);
+    syn::custom_keyword!(property);
+    syn::custom_keyword!(forall);
+    syn::custom_keyword!(assume);
+    syn::custom_keyword!(ensure);
 }
 
 const ITEM_HELP: &str = "a controller body holds `period`, `rounding`, `word`, `input`, `param`, \
@@ -130,13 +135,81 @@ fn parse_item(input: ParseStream) -> syn::Result<Item> {
         let span = input.parse::<kw::prove>()?.span;
         let content;
         braced!(content in input);
-        Ok(Item::Prove {
-            tokens: content.parse::<TokenStream>()?,
-            span,
-        })
+        let mut items = Vec::new();
+        while !content.is_empty() {
+            items.push(parse_prop_item(&content)?);
+        }
+        Ok(Item::Prove { items, span })
     } else {
         let e = la.error();
         Err(syn::Error::new(e.span(), format!("{e}; {ITEM_HELP}")))
+    }
+}
+
+const PROVE_HELP: &str = "a `prove` block holds `invariant NAME: COND;` and \
+`property NAME { forall P in [LO, HI]; assume COND; ensure COND; }` items";
+
+fn parse_prop_item(input: ParseStream) -> syn::Result<PropItem> {
+    let attrs = input.call(Attribute::parse_outer)?;
+    let docs = doc_lines(&attrs);
+    if let Some(a) = attrs.iter().find(|a| !a.path().is_ident("doc")) {
+        return Err(syn::Error::new_spanned(
+            a,
+            "only doc comments may stand on properties",
+        ));
+    }
+    let la = input.lookahead1();
+    if la.peek(kw::invariant) {
+        input.parse::<kw::invariant>()?;
+        let name: Ident = input.parse()?;
+        input.parse::<Token![:]>()?;
+        let cond: Expr = input.parse()?;
+        input.parse::<Token![;]>()?;
+        Ok(PropItem::Invariant { docs, name, cond })
+    } else if la.peek(kw::property) {
+        input.parse::<kw::property>()?;
+        let name: Ident = input.parse()?;
+        let body;
+        braced!(body in input);
+        let (mut foralls, mut assumes, mut ensures) = (Vec::new(), Vec::new(), Vec::new());
+        while !body.is_empty() {
+            let la = body.lookahead1();
+            if la.peek(kw::forall) {
+                body.parse::<kw::forall>()?;
+                let p: Ident = body.parse()?;
+                body.parse::<Token![in]>()?;
+                foralls.push((p, parse_range(&body)?));
+            } else if la.peek(kw::assume) {
+                body.parse::<kw::assume>()?;
+                assumes.push(body.parse()?);
+            } else if la.peek(kw::ensure) {
+                body.parse::<kw::ensure>()?;
+                ensures.push(body.parse()?);
+            } else {
+                let e = la.error();
+                return Err(syn::Error::new(
+                    e.span(),
+                    format!("{e}; a property holds `forall P in [LO, HI];`, `assume COND;` and `ensure COND;`"),
+                ));
+            }
+            body.parse::<Token![;]>()?;
+        }
+        if ensures.is_empty() {
+            return Err(syn::Error::new(
+                name.span(),
+                "a property needs at least one `ensure COND;`",
+            ));
+        }
+        Ok(PropItem::Property {
+            docs,
+            name,
+            foralls,
+            assumes,
+            ensures,
+        })
+    } else {
+        let e = la.error();
+        Err(syn::Error::new(e.span(), format!("{e}; {PROVE_HELP}")))
     }
 }
 

@@ -7,6 +7,8 @@ use crate::ir::*;
 use crate::qformat::{IntTy, QFormat, Rounding, WIDTHS};
 use crate::spec::ast::*;
 use crate::spec::parse::doc_lines;
+
+mod props;
 use proc_macro2::Span;
 use std::collections::{BTreeSet, HashMap};
 use syn::spanned::Spanned;
@@ -59,6 +61,7 @@ impl Checker {
         let mut rounding = None;
         let mut word = None;
         let mut body = None;
+        let mut prove_items: Vec<PropItem> = Vec::new();
         self.scope.push(HashMap::new());
         self.consts
             .insert("period".into(), (f64::NAN, Span::call_site()));
@@ -113,17 +116,7 @@ impl Checker {
                     }
                     body = Some(block);
                 }
-                Item::Prove { tokens, span } => {
-                    if !tokens.is_empty() {
-                        return Err(Diag::new(
-                            *span,
-                            "properties in `prove { .. }` are not supported yet",
-                        )
-                        .help(
-                            "leave the block empty for now; the proofs issue defines its syntax",
-                        ));
-                    }
-                }
+                Item::Prove { items, .. } => prove_items.extend(items.iter().cloned()),
             }
         }
         let (period, _) = period.ok_or_else(|| {
@@ -147,7 +140,10 @@ impl Checker {
                 .help("assign it after the `if`, or in both branches"));
             }
         }
+        let (invariants, properties) = self.prove(&prove_items)?;
         Ok(Program {
+            invariants,
+            properties,
             name,
             docs: ast.docs.clone(),
             period,
@@ -200,7 +196,25 @@ impl Checker {
     fn signal(&mut self, s: &SignalDecl) -> Result<()> {
         self.define(&s.name)?;
         let name = s.name.to_string();
-        let (pin, lsb) = fmt_attrs(&s.attrs)?;
+        let Attrs {
+            pin,
+            lsb,
+            claim,
+            unsaturated,
+        } = fmt_attrs(&s.attrs)?;
+        if let Some((_, sp)) = claim {
+            return Err(
+                Diag::new(sp, "`#[range]` claims go on `let` bindings").help(
+                    "declared ranges of inputs, states and outputs are written `name: [LO, HI]`",
+                ),
+            );
+        }
+        if unsaturated.is_some() && s.kind != SignalKw::State {
+            return Err(Diag::new(
+                unsaturated.unwrap_or(s.kw_span),
+                "`#[unsaturated]` applies to states only",
+            ));
+        }
         let range = match &s.range {
             Some(r) => {
                 let (lo, hi) = (self.fold(&r.lo)?, self.fold(&r.hi)?);
@@ -276,6 +290,8 @@ impl Checker {
             unit: s.unit.as_ref().map(|u| u.value()),
             pin,
             lsb,
+            claim: None,
+            unsaturated: unsaturated.is_some(),
             docs: doc_lines(&s.attrs),
             span: s.name.span(),
         });
@@ -330,7 +346,15 @@ impl Checker {
                     return Err(Diag::new(e.span(), "`let .. else` is not supported"));
                 }
                 let value = self.expr(&init.expr)?;
-                let (pin, lsb) = fmt_attrs(&local.attrs)?;
+                let Attrs {
+                    pin,
+                    lsb,
+                    claim,
+                    unsaturated,
+                } = fmt_attrs(&local.attrs)?;
+                if let Some(sp) = unsaturated {
+                    return Err(Diag::new(sp, "`#[unsaturated]` applies to states only"));
+                }
                 self.define(ident)?;
                 let id = SigId(self.signals.len());
                 self.signals.push(Signal {
@@ -342,6 +366,8 @@ impl Checker {
                     unit: None,
                     pin,
                     lsb,
+                    claim: claim.map(|c| c.0),
+                    unsaturated: false,
                     docs: doc_lines(&local.attrs),
                     span: ident.span(),
                 });
@@ -748,10 +774,20 @@ fn lit_value(l: &Lit) -> Result<f64> {
     Ok(v)
 }
 
-/// Reads `#[q(i32, 20)]` and `#[lsb(1e-3)]` from a declaration's attributes.
-fn fmt_attrs(attrs: &[syn::Attribute]) -> Result<(Option<QFormat>, Option<f64>)> {
+/// Format and proof attributes of a declaration.
+struct Attrs {
+    pin: Option<QFormat>,
+    lsb: Option<f64>,
+    claim: Option<((f64, f64), Span)>,
+    unsaturated: Option<Span>,
+}
+
+/// Reads `#[q(i32, 20)]`, `#[lsb(1e-3)]`, `#[range(LO, HI)]` and `#[unsaturated]`.
+fn fmt_attrs(attrs: &[syn::Attribute]) -> Result<Attrs> {
     let mut pin = None;
     let mut lsb = None;
+    let mut claim = None;
+    let mut unsaturated = None;
     for a in attrs {
         if a.path().is_ident("doc") {
             continue;
@@ -789,6 +825,30 @@ fn fmt_attrs(attrs: &[syn::Attribute]) -> Result<(Option<QFormat>, Option<f64>)>
                 },
                 frac,
             });
+        } else if a.path().is_ident("unsaturated") {
+            unsaturated = Some(a.span());
+        } else if a.path().is_ident("range") {
+            let args = a
+                .parse_args_with(
+                    syn::punctuated::Punctuated::<SExpr, syn::Token![,]>::parse_terminated,
+                )
+                .map_err(Diag::from)?;
+            let bad = || Diag::new(a.span(), "expected `#[range(LO, HI)]` with number literals");
+            let v: Vec<f64> = args
+                .iter()
+                .map(|e| match e {
+                    SExpr::Lit(l) => lit_value(&l.lit),
+                    SExpr::Unary(u) if matches!(u.op, UnOp::Neg(_)) => match &*u.expr {
+                        SExpr::Lit(l) => lit_value(&l.lit).map(|x| -x),
+                        _ => Err(bad()),
+                    },
+                    _ => Err(bad()),
+                })
+                .collect::<Result<_>>()?;
+            match v.as_slice() {
+                [lo, hi] if lo < hi => claim = Some(((*lo, *hi), a.span())),
+                _ => return Err(bad().help("LO < HI")),
+            }
         } else if a.path().is_ident("lsb") {
             let e: SExpr = a.parse_args().map_err(Diag::from)?;
             let v = match &e {
@@ -801,11 +861,16 @@ fn fmt_attrs(attrs: &[syn::Attribute]) -> Result<(Option<QFormat>, Option<f64>)>
             lsb = Some(v);
         } else {
             return Err(Diag::new(a.span(), "unknown attribute").help(
-                "declarations take `///` docs, `#[q(TYPE, FRAC)]` and `#[lsb(RESOLUTION)]`",
+                "declarations take `///` docs, `#[q(TYPE, FRAC)]`, `#[lsb(RESOLUTION)]`, `#[range(LO, HI)]` (on `let`) and `#[unsaturated]` (on states)",
             ));
         }
     }
-    Ok((pin, lsb))
+    Ok(Attrs {
+        pin,
+        lsb,
+        claim,
+        unsaturated,
+    })
 }
 
 fn to_snake(s: &str) -> String {
@@ -943,12 +1008,16 @@ mod tests {
                 5,
                 6,
             ),
-            (
-                "prove { invariant y < 1.0; }\nstep { y = x; }",
-                "not supported yet",
-                5,
-                1,
-            ),
+            ("state s: [0.0, 1.0] = 0.5;\nprove { invariant i: next(s) < 1.0; }\nstep { y = x; }", "not allowed in an invariant", 6, 22),
+            ("state s: [0.0, 1.0] = 0.5;\nprove { invariant i: x < 1.0; }\nstep { y = x; }", "may only mention states", 6, 22),
+            ("prove { property p { assume x > 0.5; } }\nstep { y = x; }", "at least one `ensure", 5, 18),
+            ("prove { property p { ensure y <= x / 2.0; } }\nstep { y = x; }", "division is not allowed in properties", 5, 36),
+            ("prove { property p { forall x in [0.0, 1.0]; ensure y <= x; } }\nstep { y = x; }", "`x` is already defined", 5, 29),
+            ("prove { property p { ensure next(x) <= 1.0; } }\nstep { y = x; }", "takes a state or output", 5, 34),
+            ("prove { property p { ensure sqrt(y) <= 1.0; } }\nstep { y = x; }", "unknown function `sqrt`", 5, 29),
+            ("prove { invariant i: 1.0 > 0.0; invariant i: 1.0 > 0.0; }\nstep { y = x; }", "already exists", 5, 43),
+            ("#[range(0.0, 1.0)] input z: [0.0, 1.0];\nstep { y = x; }", "claims go on `let`", 5, 1),
+            ("step { #[unsaturated] let a = x; y = a; }", "applies to states only", 5, 8),
             ("step { y = if x > 0.5 { x }; }", "needs an `else`", 5, 12),
         ];
         for (items, msg, line, col) in cases {
