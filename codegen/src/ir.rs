@@ -174,7 +174,7 @@ pub enum Expr {
 }
 
 /// Comparison operator.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum CmpOp {
     /// `<`
     Lt,

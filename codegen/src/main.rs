@@ -47,7 +47,41 @@ enum Cmd {
         #[arg(long, default_value = "generic32")]
         target: String,
     },
-    /// Run check and gen on the built-in Koren–Masory (1981) spec; write to ./qloop-demo/.
+    /// Prove every obligation (overflow, initial, inductive, properties) with z3 and cvc5.
+    ///
+    /// Exit 0 only if everything is proved; 1 if anything is refuted or unknown.
+    Prove {
+        /// The spec file (*.qloop).
+        spec: PathBuf,
+        /// Also write the report as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Per-solver, per-obligation timeout in seconds.
+        #[arg(long, default_value_t = 60)]
+        timeout: u64,
+        /// Solver processes at once (default: the number of cores).
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// Which solvers to run.
+        #[arg(long, value_enum, default_value_t = Solvers::Both)]
+        solvers: Solvers,
+        /// Verdict cache directory (default: $QLOOP_CACHE, else ~/.cache/qloop).
+        #[arg(long)]
+        cache: Option<PathBuf>,
+        /// Do not read or write the verdict cache.
+        #[arg(long)]
+        no_cache: bool,
+        /// Write each obligation's SMT-LIB 2 script into this directory.
+        #[arg(long)]
+        smt_dir: Option<PathBuf>,
+        /// Prove only the obligations whose name contains this text.
+        #[arg(long)]
+        only: Option<String>,
+        /// Cost-model target (see `qloop targets`).
+        #[arg(long, default_value = "generic32")]
+        target: String,
+    },
+    /// Run check, gen and prove on the built-in Koren–Masory (1981) spec; write to ./qloop-demo/.
     Demo {
         /// Output directory.
         #[arg(long, default_value = "qloop-demo")]
@@ -55,6 +89,16 @@ enum Cmd {
     },
     /// List the built-in cost-model targets.
     Targets,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum Solvers {
+    /// z3 and cvc5 in parallel (cross-checked).
+    Both,
+    /// z3 only.
+    Z3,
+    /// cvc5 only.
+    Cvc5,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -100,6 +144,34 @@ fn run(cli: Cli) -> Result<(), Fail> {
                     print!("{text}");
                     Ok(())
                 }
+            }
+        }
+        Cmd::Prove {
+            spec,
+            json,
+            timeout,
+            jobs,
+            solvers,
+            cache,
+            no_cache,
+            smt_dir,
+            only,
+            target,
+        } => {
+            let (plan, _) = load(&spec, &target)?;
+            if let Some(dir) = &smt_dir {
+                write_smt(&plan, dir)?;
+            }
+            let cfg = solver_config(solvers, timeout, jobs, cache, no_cache)?;
+            let report = run_prove(&plan, &cfg, only.as_deref());
+            print!("{}", report.table(&plan));
+            if let Some(j) = json {
+                write_atomic(&j, &report.json())?;
+            }
+            if report.proved() {
+                Ok(())
+            } else {
+                Err(Fail(1))
             }
         }
         Cmd::Demo { out } => demo(&out),
@@ -150,6 +222,91 @@ fn report(d: &Diag, file: &str, src: &str) {
     }
     let r = Report::new(m).with_source_code(NamedSource::new(file, src.to_string()));
     eprintln!("{r:?}");
+}
+
+fn solver_config(
+    which: Solvers,
+    timeout: u64,
+    jobs: Option<usize>,
+    cache: Option<PathBuf>,
+    no_cache: bool,
+) -> Result<qloop::prove::solver::Config, Fail> {
+    use qloop::prove::solver::{Config, Solver};
+    let wanted: Vec<Solver> = match which {
+        Solvers::Both => Solver::ALL.to_vec(),
+        Solvers::Z3 => vec![Solver::Z3],
+        Solvers::Cvc5 => vec![Solver::Cvc5],
+    };
+    let solvers: Vec<Solver> = wanted.iter().copied().filter(|s| s.available()).collect();
+    for s in wanted.iter().filter(|s| !s.available()) {
+        eprintln!(
+            "warning: {} is not installed (on Debian: apt-get install {})",
+            s.name(),
+            s.name()
+        );
+    }
+    if solvers.is_empty() {
+        eprintln!("error: no SMT solver available; install z3 and cvc5 (apt-get install z3 cvc5)");
+        return Err(Fail(1));
+    }
+    let mut cfg = Config {
+        solvers,
+        timeout_ms: timeout.saturating_mul(1000),
+        ..Config::default()
+    };
+    if let Some(j) = jobs {
+        cfg.jobs = j.max(1);
+    }
+    cfg.cache_dir = if no_cache {
+        None
+    } else {
+        cache
+            .or_else(|| std::env::var_os("QLOOP_CACHE").map(PathBuf::from))
+            .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache/qloop")))
+    };
+    Ok(cfg)
+}
+
+/// Runs the prover with a progress bar on standard error (hidden when it is not a terminal).
+/// Writes every obligation's SMT-LIB script to `dir` (one `.smt2` file each).
+fn write_smt(plan: &Plan, dir: &Path) -> Result<(), Fail> {
+    std::fs::create_dir_all(dir).map_err(|e| {
+        eprintln!("error: cannot create `{}`: {e}", dir.display());
+        Fail(1)
+    })?;
+    for (i, ob) in qloop::prove::obligations::obligations(plan)
+        .iter()
+        .enumerate()
+    {
+        let text = format!(
+            "; qloop obligation {i}: {} ({})\n(set-option :produce-models true)\n{}(check-sat)\n",
+            ob.name,
+            ob.kind.name(),
+            ob.query.script
+        );
+        write_atomic(&dir.join(format!("{i:03}-{}.smt2", ob.kind.name())), &text)?;
+    }
+    Ok(())
+}
+
+fn run_prove(
+    plan: &Plan,
+    cfg: &qloop::prove::solver::Config,
+    only: Option<&str>,
+) -> qloop::prove::Report {
+    let bar = indicatif::ProgressBar::new(0);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{spinner} proving {pos}/{len} solver runs [{elapsed}] {wide_bar}",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let report = qloop::prove::prove_filtered(plan, cfg, only, &mut |done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    });
+    bar.finish_and_clear();
+    report
 }
 
 fn write_atomic(path: &Path, text: &str) -> Result<(), Fail> {

@@ -35,6 +35,8 @@ pub struct Val {
     /// The interval `[lo, hi]` is trusted from a user claim (`#[range]`, `#[unsaturated]`)
     /// rather than derived from the operands: only a whole-program proof can discharge it.
     pub claimed: bool,
+    /// Spec line of the statement this value was lowered from (0 if unknown).
+    pub line: usize,
 }
 
 /// An integer operation. Operand types equal the result type except where noted.

@@ -212,6 +212,8 @@ struct Lowerer<'a> {
     /// Physical hull of values stored to each output.
     seen: HashMap<SigId, (f64, f64)>,
     mults: Vec<MulNote>,
+    /// Spec line of the statement being lowered.
+    line: usize,
 }
 
 struct Lowered {
@@ -295,6 +297,7 @@ impl<'a> Lowerer<'a> {
             inputs: HashMap::new(),
             seen: HashMap::new(),
             mults: Vec::new(),
+            line: 0,
         }
     }
 
@@ -390,6 +393,7 @@ impl<'a> Lowerer<'a> {
             name: None,
             boolean: false,
             claimed: false,
+            line: self.line,
         });
         out.push(LStmt::Def(id));
         id
@@ -580,6 +584,7 @@ impl<'a> Lowerer<'a> {
                 value,
                 span,
             } => {
+                self.line = span.start().line;
                 let sig = self.prog.sig(*target).clone();
                 if sig.kind == SigKind::Local {
                     let mut v = match (value, sig.claim) {

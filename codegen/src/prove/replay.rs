@@ -1,0 +1,361 @@
+//! Replaying counterexamples: a solver's model is run through the plan interpreter (the
+//! executable semantics the generated Rust is tested bit-identical to) and the violated
+//! condition is re-evaluated in exact big-integer arithmetic that shares no code with the SMT
+//! encoder. Only a counterexample that replays is reported as a refutation.
+
+use super::obligations::{param_grids, Goal, Obligation};
+use crate::interp::step_fixed;
+use crate::ir::{CmpOp, PCond, PExpr, SigId, SigKind, When};
+use crate::lower::Plan;
+use num_bigint::BigInt;
+use std::collections::BTreeMap;
+
+/// A counterexample: raw values of the model's variables, by SMT name.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Cex {
+    /// (SMT variable, signed raw value, width).
+    pub values: Vec<(String, i128, u32)>,
+}
+
+impl Cex {
+    /// From a solver model of unsigned bit patterns.
+    pub fn from_model(model: &[(String, u128, u32)], signed: &dyn Fn(&str) -> bool) -> Cex {
+        let values = model
+            .iter()
+            .map(|(n, v, w)| {
+                let raw = if signed(n) && *w < 128 && (v >> (w - 1)) & 1 == 1 {
+                    (*v as i128) - (1i128 << w)
+                } else {
+                    *v as i128
+                };
+                (n.clone(), raw, *w)
+            })
+            .collect();
+        Cex { values }
+    }
+
+    fn get(&self, name: &str) -> Option<i128> {
+        self.values
+            .iter()
+            .find(|(n, ..)| n == name)
+            .map(|(_, v, _)| *v)
+    }
+}
+
+/// Whether the SMT variable `name` holds a signed value.
+pub fn var_is_signed(plan: &Plan, name: &str) -> bool {
+    let prog = &plan.prog;
+    for (i, s) in prog.signals.iter().enumerate() {
+        if name == super::smt::input_var(prog, SigId(i))
+            || name == super::smt::pre_var(prog, SigId(i))
+        {
+            return plan.format(SigId(i)).ty.signed;
+        }
+        let _ = s;
+    }
+    true
+}
+
+/// What the replay found.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Replay {
+    /// The violation happens: the description says what.
+    Confirmed(String),
+    /// The model does not violate the obligation when executed: a spurious counterexample.
+    NotConfirmed(String),
+    /// The model is not a program state (a local query's operands).
+    NotApplicable,
+}
+
+/// An exact rational `raw · 2^-frac`.
+#[derive(Clone, Debug)]
+struct Q {
+    raw: BigInt,
+    frac: i32,
+}
+
+impl Q {
+    fn at(&self, f: i32) -> BigInt {
+        &self.raw << ((f - self.frac).max(0) as usize)
+    }
+    fn bin(a: Q, b: Q, op: impl Fn(BigInt, BigInt) -> BigInt) -> Q {
+        let f = a.frac.max(b.frac);
+        Q {
+            raw: op(a.at(f), b.at(f)),
+            frac: f,
+        }
+    }
+    fn cmp(a: &Q, b: &Q) -> std::cmp::Ordering {
+        let f = a.frac.max(b.frac);
+        a.at(f).cmp(&b.at(f))
+    }
+}
+
+fn constant(c: f64) -> Option<Q> {
+    let (m, frac) = super::smt::exact_binary(c)?;
+    Some(Q {
+        raw: BigInt::from(m),
+        frac,
+    })
+}
+
+/// Values a property reads, by signal and side.
+struct Frame<'a> {
+    plan: &'a Plan,
+    pre: &'a [i128],
+    post: &'a [i128],
+    params: &'a [Q],
+}
+
+impl Frame<'_> {
+    fn expr(&self, e: &PExpr) -> Option<Q> {
+        Some(match e {
+            PExpr::Const(c) => constant(*c)?,
+            PExpr::Sig(id, when) => {
+                let q = self.plan.format(*id);
+                let kind = self.plan.prog.sig(*id).kind;
+                let raw = match (kind, when) {
+                    (SigKind::Input, _) | (SigKind::State, When::Pre) => self.pre[id.0],
+                    _ => self.post[id.0],
+                };
+                Q {
+                    raw: BigInt::from(raw),
+                    frac: q.frac,
+                }
+            }
+            PExpr::Param(i) => self.params.get(*i)?.clone(),
+            PExpr::Neg(a) => {
+                let a = self.expr(a)?;
+                Q {
+                    raw: -a.raw,
+                    frac: a.frac,
+                }
+            }
+            PExpr::Abs(a) => {
+                let a = self.expr(a)?;
+                Q {
+                    raw: if a.raw < BigInt::from(0) {
+                        -a.raw
+                    } else {
+                        a.raw
+                    },
+                    frac: a.frac,
+                }
+            }
+            PExpr::Add(a, b) => Q::bin(self.expr(a)?, self.expr(b)?, |x, y| x + y),
+            PExpr::Sub(a, b) => Q::bin(self.expr(a)?, self.expr(b)?, |x, y| x - y),
+            PExpr::Min(a, b) => Q::bin(self.expr(a)?, self.expr(b)?, |x, y| x.min(y)),
+            PExpr::Max(a, b) => Q::bin(self.expr(a)?, self.expr(b)?, |x, y| x.max(y)),
+            PExpr::Mul(a, b) => {
+                let (a, b) = (self.expr(a)?, self.expr(b)?);
+                Q {
+                    raw: a.raw * b.raw,
+                    frac: a.frac + b.frac,
+                }
+            }
+        })
+    }
+
+    fn cond(&self, c: &PCond) -> Option<bool> {
+        Some(match c {
+            PCond::Cmp(op, a, b) => {
+                let o = Q::cmp(&self.expr(a)?, &self.expr(b)?);
+                use std::cmp::Ordering::*;
+                match op {
+                    CmpOp::Lt => o == Less,
+                    CmpOp::Le => o != Greater,
+                    CmpOp::Gt => o == Greater,
+                    CmpOp::Ge => o != Less,
+                    CmpOp::Eq => o == Equal,
+                    CmpOp::Ne => o != Equal,
+                }
+            }
+            PCond::And(a, b) => self.cond(a)? && self.cond(b)?,
+            PCond::Or(a, b) => self.cond(a)? || self.cond(b)?,
+            PCond::Not(a) => !self.cond(a)?,
+        })
+    }
+}
+
+/// Replays a counterexample for an obligation.
+pub fn replay(plan: &Plan, ob: &Obligation, cex: &Cex, initial: bool) -> Replay {
+    let prog = &plan.prog;
+    if let Goal::Val { local: true, .. } = ob.goal {
+        return Replay::NotApplicable;
+    }
+    // Pre-step slots: inputs and states from the model (initial queries: the initial state).
+    let mut pre = vec![0i128; prog.signals.len()];
+    for (i, s) in prog.signals.iter().enumerate() {
+        let id = SigId(i);
+        pre[i] = match s.kind {
+            SigKind::Input => cex.get(&super::smt::input_var(prog, id)).unwrap_or(0),
+            SigKind::State => cex
+                .get(&super::smt::pre_var(prog, id))
+                .unwrap_or_else(|| plan.raw_init(id)),
+            _ => 0,
+        };
+    }
+    let bounds_ok = |vals: &[i128], id: SigId| {
+        let q = plan.format(id);
+        let (lo, hi) = plan.raw_bounds(id).unwrap_or((q.ty.min(), q.ty.max()));
+        (lo..=hi).contains(&vals[id.0])
+    };
+    if initial {
+        return match &ob.goal {
+            Goal::StateBound(id) if !bounds_ok(&pre, *id) => Replay::Confirmed(format!(
+                "initial {} = raw {} is outside its range",
+                prog.sig(*id).name,
+                pre[id.0]
+            )),
+            Goal::Invariant(k) => {
+                let f = Frame {
+                    plan,
+                    pre: &pre,
+                    post: &pre,
+                    params: &[],
+                };
+                match f.cond(&prog.invariants[*k].cond) {
+                    Some(false) => Replay::Confirmed(format!(
+                        "invariant {} is false initially",
+                        prog.invariants[*k].name
+                    )),
+                    Some(true) => Replay::NotConfirmed("the invariant holds initially".into()),
+                    None => Replay::NotConfirmed("cannot evaluate exactly".into()),
+                }
+            }
+            _ => Replay::NotConfirmed("the initial state is inside its range".into()),
+        };
+    }
+    let mut post = pre.clone();
+    let run = step_fixed(plan, &mut post);
+    if let Err(v) = &run {
+        let val = plan.val(v.val);
+        let what = format!(
+            "value {} (line {}) computes {} outside its proved interval [{}, {}] ({}): the generated code {}",
+            val.name.clone().unwrap_or_else(|| format!("_{}", v.val.0)),
+            val.line,
+            v.got,
+            v.range.0,
+            v.range.1,
+            val.ty,
+            if val.ty.holds(v.got, v.got) { "leaves its claimed range" } else { "overflows its type" }
+        );
+        return Replay::Confirmed(what);
+    }
+    match &ob.goal {
+        Goal::Val { .. } => Replay::NotConfirmed("every value stays in its interval".into()),
+        Goal::StateBound(id) => {
+            if bounds_ok(&post, *id) {
+                Replay::NotConfirmed("the state stays in its range".into())
+            } else {
+                Replay::Confirmed(format!(
+                    "{} leaves its range: raw {}",
+                    prog.sig(*id).name,
+                    post[id.0]
+                ))
+            }
+        }
+        Goal::Invariant(k) => {
+            let f = Frame {
+                plan,
+                pre: &post,
+                post: &post,
+                params: &[],
+            };
+            match f.cond(&prog.invariants[*k].cond) {
+                Some(false) => Replay::Confirmed(format!(
+                    "invariant {} is false after the step",
+                    prog.invariants[*k].name
+                )),
+                Some(true) => Replay::NotConfirmed("the invariant holds after the step".into()),
+                None => Replay::NotConfirmed("cannot evaluate exactly".into()),
+            }
+        }
+        Goal::Property(k) => {
+            let p = &prog.properties[*k];
+            let params: Vec<Q> = param_grids(plan, *k)
+                .iter()
+                .map(|g| Q {
+                    raw: BigInt::from(cex.get(&g.var).unwrap_or(0)),
+                    frac: g.frac,
+                })
+                .collect();
+            let f = Frame {
+                plan,
+                pre: &pre,
+                post: &post,
+                params: &params,
+            };
+            let assumed = p
+                .assumes
+                .iter()
+                .map(|c| f.cond(c))
+                .collect::<Option<Vec<bool>>>();
+            let ensured = p
+                .ensures
+                .iter()
+                .map(|c| f.cond(c))
+                .collect::<Option<Vec<bool>>>();
+            match (assumed, ensured) {
+                (Some(a), Some(e)) if a.iter().all(|x| *x) && e.iter().any(|x| !x) => {
+                    Replay::Confirmed(format!(
+                        "property {} fails: its assumptions hold and a conclusion is false",
+                        p.name
+                    ))
+                }
+                (Some(_), Some(_)) => {
+                    Replay::NotConfirmed("the property holds on this input".into())
+                }
+                _ => Replay::NotConfirmed("cannot evaluate exactly".into()),
+            }
+        }
+    }
+}
+
+/// Physical-unit rendering of a counterexample.
+pub fn describe(plan: &Plan, ob: &Obligation, cex: &Cex) -> Vec<String> {
+    let prog = &plan.prog;
+    let mut by_name: BTreeMap<String, String> = BTreeMap::new();
+    for (i, s) in prog.signals.iter().enumerate() {
+        let id = SigId(i);
+        let q = plan.format(id);
+        let unit = s.unit.clone().unwrap_or_default();
+        for var in [
+            super::smt::input_var(prog, id),
+            super::smt::pre_var(prog, id),
+        ] {
+            if let Some(v) = cex.get(&var) {
+                let what = if var.starts_with("in_") {
+                    "input"
+                } else {
+                    "state"
+                };
+                by_name.insert(
+                    var,
+                    format!("{what} {} = {} {unit} (raw {v}, {q})", s.name, q.value(v)),
+                );
+            }
+        }
+    }
+    if let Goal::Property(k) = ob.goal {
+        for (g, fp) in param_grids(plan, k).iter().zip(&prog.properties[k].params) {
+            if let Some(v) = cex.get(&g.var) {
+                by_name.insert(
+                    g.var.clone(),
+                    format!(
+                        "parameter {} = {} (raw {v} · 2^-{})",
+                        fp.name,
+                        v as f64 * 2f64.powi(-g.frac),
+                        g.frac
+                    ),
+                );
+            }
+        }
+    }
+    for (n, v, w) in &cex.values {
+        by_name
+            .entry(n.clone())
+            .or_insert_with(|| format!("operand {n} = raw {v} ({w} bits)"));
+    }
+    by_name.into_values().collect()
+}

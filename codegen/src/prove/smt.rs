@@ -1,0 +1,493 @@
+//! SMT-LIB 2 (QF_BV) encoding of a fixed-point plan, bit for bit.
+//!
+//! Every plan value becomes a `define-fun` of its machine width: `bvadd`, `bvsub`, `bvneg`,
+//! `bvmul`, `bvshl`, `bvashr` (the arithmetic shift, floor), sign extension for widening casts
+//! of signed values, zero extension for unsigned storage, `extract` for narrowing casts,
+//! `ite` with `bvslt` for min/max/select. Branches are encoded in SSA form: values computed in
+//! a branch are pure terms, and a state or output written in a branch becomes an `ite` on the
+//! branch condition at the merge. Wrapping is modelled exactly, so the overflow obligations
+//! are about the real machine semantics.
+//!
+//! Property expressions are evaluated *exactly*: every operand is sign-extended and aligned to
+//! a common binary point, with widths grown so that nothing wraps.
+
+use crate::ir::{CmpOp, PCond, PExpr, Program, SigId, SigKind, When};
+use crate::lower::lir::{LStmt, Op, Val, ValId};
+use crate::lower::Plan;
+use crate::qformat::IntTy;
+use std::collections::BTreeMap;
+use std::fmt::Write;
+
+/// A bit-vector literal of `width` bits holding `v` in two's complement.
+pub fn lit(v: i128, width: u32) -> String {
+    let m = if width >= 128 {
+        v as u128
+    } else {
+        (v as u128) & ((1u128 << width) - 1)
+    };
+    format!("(_ bv{m} {width})")
+}
+
+/// `t` (a `from`-bit value, signed or not) resized to `to` bits.
+pub fn resize(t: &str, from: u32, to: u32, signed: bool) -> String {
+    use std::cmp::Ordering::*;
+    match to.cmp(&from) {
+        Equal => t.to_string(),
+        Greater => format!(
+            "((_ {} {}) {t})",
+            if signed { "sign_extend" } else { "zero_extend" },
+            to - from
+        ),
+        Less => format!("((_ extract {} 0) {t})", to - 1),
+    }
+}
+
+/// The fewest bits of a signed integer holding every value in `[lo, hi]`.
+pub fn signed_bits(lo: i128, hi: i128) -> u32 {
+    let need = |v: i128| {
+        if v >= 0 {
+            129 - v.leading_zeros()
+        } else {
+            129 - (!v).leading_zeros()
+        }
+    };
+    need(lo).max(need(hi)).max(1)
+}
+
+/// `lo ≤ t ≤ hi` for a signed `width`-bit term.
+pub fn in_range(t: &str, width: u32, lo: i128, hi: i128) -> String {
+    format!(
+        "(and (bvsle {} {t}) (bvsle {t} {}))",
+        lit(lo, width),
+        lit(hi, width)
+    )
+}
+
+/// SMT names of the free variables.
+pub fn input_var(prog: &Program, id: SigId) -> String {
+    format!("in_{}", prog.sig(id).name)
+}
+
+/// The pre-state variable of a state.
+pub fn pre_var(prog: &Program, id: SigId) -> String {
+    format!("pre_{}", prog.sig(id).name)
+}
+
+/// The variable of a property's free parameter.
+pub fn param_var(name: &str) -> String {
+    format!("p_{name}")
+}
+
+/// The whole step, as definitions over `in_*` and `pre_*` variables.
+pub struct Encoding {
+    /// Declarations and definitions, in order.
+    pub text: String,
+    /// Term of each state/output after the step (storage width).
+    pub post: BTreeMap<SigId, String>,
+}
+
+/// The SMT sort of a value.
+fn sort(v: &Val) -> String {
+    if v.boolean {
+        "Bool".into()
+    } else {
+        format!("(_ BitVec {})", v.ty.bits)
+    }
+}
+
+/// Name of value `id` in the encoding.
+pub fn vname(id: ValId) -> String {
+    format!("v{}", id.0)
+}
+
+/// Declares inputs and pre-states and defines every plan value.
+pub fn encode_step(plan: &Plan) -> Encoding {
+    let prog = &plan.prog;
+    let mut text = String::new();
+    let mut env: BTreeMap<SigId, String> = BTreeMap::new();
+    for (i, s) in prog.signals.iter().enumerate() {
+        let id = SigId(i);
+        let w = plan.format(id).ty.bits;
+        match s.kind {
+            SigKind::Input => {
+                let _ = writeln!(
+                    text,
+                    "(declare-fun {} () (_ BitVec {w}))",
+                    input_var(prog, id)
+                );
+            }
+            SigKind::State => {
+                let _ = writeln!(
+                    text,
+                    "(declare-fun {} () (_ BitVec {w}))",
+                    pre_var(prog, id)
+                );
+                env.insert(id, pre_var(prog, id));
+            }
+            SigKind::Output => {
+                env.insert(id, lit(0, w));
+            }
+            SigKind::Local => {}
+        }
+    }
+    let mut merges = 0usize;
+    block(plan, &plan.body, &mut env, &mut text, &mut merges);
+    Encoding { text, post: env }
+}
+
+fn block(
+    plan: &Plan,
+    stmts: &[LStmt],
+    env: &mut BTreeMap<SigId, String>,
+    text: &mut String,
+    merges: &mut usize,
+) {
+    for s in stmts {
+        match s {
+            LStmt::Def(id) => {
+                let v = plan.val(*id);
+                let e = op_term(plan, *id, env);
+                let _ = writeln!(text, "(define-fun {} () {} {e})", vname(*id), sort(v));
+            }
+            LStmt::Store(sig, id) => {
+                env.insert(*sig, vname(*id));
+            }
+            LStmt::If(c, t, e) => {
+                let mut et = env.clone();
+                block(plan, t, &mut et, text, merges);
+                let mut ee = env.clone();
+                block(plan, e, &mut ee, text, merges);
+                for (sig, tt) in &et {
+                    let te = &ee[sig];
+                    if tt != te {
+                        let name = format!("m{merges}");
+                        *merges += 1;
+                        let w = plan.format(*sig).ty.bits;
+                        let _ = writeln!(
+                            text,
+                            "(define-fun {name} () (_ BitVec {w}) (ite {} {tt} {te}))",
+                            vname(*c)
+                        );
+                        env.insert(*sig, name);
+                    } else {
+                        env.insert(*sig, tt.clone());
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The bit-precise term of value `id`, over earlier definitions.
+fn op_term(plan: &Plan, id: ValId, env: &BTreeMap<SigId, String>) -> String {
+    let v = plan.val(id);
+    let w = v.ty.bits;
+    let n = |x: &ValId| vname(*x);
+    match &v.op {
+        Op::Input(s) => input_var(&plan.prog, *s),
+        Op::Load(s) => env[s].clone(),
+        Op::Const(c) => lit(*c, w),
+        Op::Cast(a) => {
+            let av = plan.val(*a);
+            resize(&n(a), av.ty.bits, w, av.ty.signed)
+        }
+        Op::Add(a, b) => format!("(bvadd {} {})", n(a), n(b)),
+        Op::Sub(a, b) => format!("(bvsub {} {})", n(a), n(b)),
+        Op::Neg(a) => format!("(bvneg {})", n(a)),
+        Op::Shl(a, k) => format!("(bvshl {} {})", n(a), lit(*k as i128, w)),
+        Op::Shr(a, k) => format!("(bvashr {} {})", n(a), lit(*k as i128, w)),
+        Op::Mul(a, b) => format!("(bvmul {} {})", n(a), n(b)),
+        Op::Min(a, b) => format!("(ite (bvslt {a} {b}) {a} {b})", a = n(a), b = n(b)),
+        Op::Max(a, b) => format!("(ite (bvslt {a} {b}) {b} {a})", a = n(a), b = n(b)),
+        Op::Select(c, a, b) => format!("(ite {} {} {})", n(c), n(a), n(b)),
+        Op::Cmp(op, a, b) => {
+            let (a, b) = (n(a), n(b));
+            match op {
+                CmpOp::Lt => format!("(bvslt {a} {b})"),
+                CmpOp::Le => format!("(bvsle {a} {b})"),
+                CmpOp::Gt => format!("(bvsgt {a} {b})"),
+                CmpOp::Ge => format!("(bvsge {a} {b})"),
+                CmpOp::Eq => format!("(= {a} {b})"),
+                CmpOp::Ne => format!("(not (= {a} {b}))"),
+            }
+        }
+        Op::And(a, b) => format!("(and {} {})", n(a), n(b)),
+        Op::Or(a, b) => format!("(or {} {})", n(a), n(b)),
+        Op::Not(a) => format!("(not {})", n(a)),
+    }
+}
+
+/// The exact (non-wrapping) result of value `id`'s operation, from operand terms given by
+/// `operand` (each a signed term of the returned width, or narrower), as (term, width).
+/// Used by the overflow obligations: the plan's value is correct iff this lies in the type.
+pub fn exact_term(
+    plan: &Plan,
+    id: ValId,
+    operand: &dyn Fn(ValId) -> (String, u32),
+) -> Option<(String, u32)> {
+    let v = plan.val(id);
+    let sx = |a: &ValId, to: u32| {
+        let (t, w) = operand(*a);
+        resize(&t, w, to, true)
+    };
+    let wid = |a: &ValId| operand(*a).1;
+    Some(match &v.op {
+        Op::Add(a, b) | Op::Sub(a, b) => {
+            let w = wid(a).max(wid(b)) + 1;
+            let f = if matches!(v.op, Op::Add(..)) {
+                "bvadd"
+            } else {
+                "bvsub"
+            };
+            (format!("({f} {} {})", sx(a, w), sx(b, w)), w)
+        }
+        Op::Neg(a) => {
+            let w = wid(a) + 1;
+            (format!("(bvneg {})", sx(a, w)), w)
+        }
+        Op::Mul(a, b) => {
+            let w = wid(a) + wid(b);
+            (format!("(bvmul {} {})", sx(a, w), sx(b, w)), w)
+        }
+        Op::Shl(a, k) => {
+            let w = wid(a) + k;
+            (format!("(bvshl {} {})", sx(a, w), lit(*k as i128, w)), w)
+        }
+        Op::Shr(a, k) => {
+            let w = wid(a);
+            (format!("(bvashr {} {})", sx(a, w), lit(*k as i128, w)), w)
+        }
+        Op::Min(a, b) | Op::Max(a, b) => {
+            let w = wid(a).max(wid(b));
+            let (x, y) = (sx(a, w), sx(b, w));
+            let t = if matches!(v.op, Op::Min(..)) {
+                format!("(ite (bvslt {x} {y}) {x} {y})")
+            } else {
+                format!("(ite (bvslt {x} {y}) {y} {x})")
+            };
+            (t, w)
+        }
+        Op::Select(c, a, b) => {
+            let w = wid(a).max(wid(b));
+            let (ct, _) = operand(*c);
+            (format!("(ite {ct} {} {})", sx(a, w), sx(b, w)), w)
+        }
+        Op::Cast(a) => {
+            let (t, w) = operand(*a);
+            (t, w)
+        }
+        Op::Const(c) => {
+            let w = signed_bits(*c, *c);
+            (lit(*c, w), w)
+        }
+        Op::Input(_) | Op::Load(_) | Op::Cmp(..) | Op::And(..) | Op::Or(..) | Op::Not(..) => {
+            return None
+        }
+    })
+}
+
+/// An exactly evaluated property term: signed, `width` bits, `frac` fraction bits.
+#[derive(Clone, Debug)]
+pub struct Exact {
+    /// SMT term.
+    pub term: String,
+    /// Width in bits.
+    pub width: u32,
+    /// Binary point.
+    pub frac: i32,
+}
+
+impl Exact {
+    fn to(&self, width: u32, frac: i32) -> String {
+        let shift = (frac - self.frac) as u32;
+        let t = resize(&self.term, self.width, width, true);
+        if shift == 0 {
+            t
+        } else {
+            format!("(bvshl {t} {})", lit(shift as i128, width))
+        }
+    }
+}
+
+/// The exact binary value of an f64 as `m · 2^-frac` with `frac ≥ 0` as small as possible.
+pub fn exact_binary(c: f64) -> Option<(i128, i32)> {
+    if !c.is_finite() {
+        return None;
+    }
+    for frac in 0..1100 {
+        let scaled = c * 2f64.powi(frac);
+        if scaled.fract() == 0.0 {
+            return (scaled.abs() < 2f64.powi(120)).then_some((scaled as i128, frac));
+        }
+    }
+    None
+}
+
+/// Property-encoding context: where signals and parameters come from.
+pub struct PropEnv<'a> {
+    /// The plan.
+    pub plan: &'a Plan,
+    /// Post-step terms.
+    pub post: &'a BTreeMap<SigId, String>,
+    /// Free parameters: (variable, width, frac).
+    pub params: &'a [(String, u32, i32)],
+    /// Read states' pre-step values from the post-step terms (invariants after a step).
+    pub pre_as_post: bool,
+}
+
+impl PropEnv<'_> {
+    fn signal(&self, id: SigId, when: When) -> Exact {
+        let q = self.plan.format(id);
+        let prog = &self.plan.prog;
+        let raw = match (prog.sig(id).kind, when) {
+            (SigKind::Input, _) => input_var(prog, id),
+            (SigKind::State, When::Pre) if !self.pre_as_post => pre_var(prog, id),
+            _ => self.post[&id].clone(),
+        };
+        // Unsigned storage: zero-extend by one bit to make it a signed term.
+        let (term, width) = if q.ty.signed {
+            (raw, q.ty.bits)
+        } else {
+            (resize(&raw, q.ty.bits, q.ty.bits + 1, false), q.ty.bits + 1)
+        };
+        Exact {
+            term,
+            width,
+            frac: q.frac,
+        }
+    }
+
+    /// Exact term of a property expression.
+    pub fn expr(&self, e: &PExpr) -> Option<Exact> {
+        Some(match e {
+            PExpr::Const(c) => {
+                let (m, frac) = exact_binary(*c)?;
+                let width = signed_bits(m, m);
+                Exact {
+                    term: lit(m, width),
+                    width,
+                    frac,
+                }
+            }
+            PExpr::Sig(id, when) => self.signal(*id, *when),
+            PExpr::Param(i) => {
+                let (v, w, f) = &self.params[*i];
+                Exact {
+                    term: v.clone(),
+                    width: *w,
+                    frac: *f,
+                }
+            }
+            PExpr::Neg(a) => {
+                let a = self.expr(a)?;
+                let w = a.width + 1;
+                Exact {
+                    term: format!("(bvneg {})", a.to(w, a.frac)),
+                    width: w,
+                    frac: a.frac,
+                }
+            }
+            PExpr::Abs(a) => {
+                let a = self.expr(a)?;
+                let w = a.width + 1;
+                let t = a.to(w, a.frac);
+                Exact {
+                    term: format!("(ite (bvslt {t} {z}) (bvneg {t}) {t})", z = lit(0, w)),
+                    width: w,
+                    frac: a.frac,
+                }
+            }
+            PExpr::Add(a, b) | PExpr::Sub(a, b) | PExpr::Min(a, b) | PExpr::Max(a, b) => {
+                let (a2, b2) = (self.expr(a)?, self.expr(b)?);
+                let f = a2.frac.max(b2.frac);
+                let w = (a2.width + (f - a2.frac) as u32).max(b2.width + (f - b2.frac) as u32) + 1;
+                let (x, y) = (a2.to(w, f), b2.to(w, f));
+                let term = match e {
+                    PExpr::Add(..) => format!("(bvadd {x} {y})"),
+                    PExpr::Sub(..) => format!("(bvsub {x} {y})"),
+                    PExpr::Min(..) => format!("(ite (bvslt {x} {y}) {x} {y})"),
+                    _ => format!("(ite (bvslt {x} {y}) {y} {x})"),
+                };
+                Exact {
+                    term,
+                    width: w,
+                    frac: f,
+                }
+            }
+            PExpr::Mul(a, b) => {
+                let (a, b) = (self.expr(a)?, self.expr(b)?);
+                let w = a.width + b.width;
+                Exact {
+                    term: format!("(bvmul {} {})", a.to(w, a.frac), b.to(w, b.frac)),
+                    width: w,
+                    frac: a.frac + b.frac,
+                }
+            }
+        })
+    }
+
+    /// Exact term of a property condition.
+    pub fn cond(&self, c: &PCond) -> Option<String> {
+        Some(match c {
+            PCond::Cmp(op, a, b) => {
+                let (a, b) = (self.expr(a)?, self.expr(b)?);
+                let f = a.frac.max(b.frac);
+                let w = (a.width + (f - a.frac) as u32).max(b.width + (f - b.frac) as u32);
+                let (x, y) = (a.to(w, f), b.to(w, f));
+                match op {
+                    CmpOp::Lt => format!("(bvslt {x} {y})"),
+                    CmpOp::Le => format!("(bvsle {x} {y})"),
+                    CmpOp::Gt => format!("(bvsgt {x} {y})"),
+                    CmpOp::Ge => format!("(bvsge {x} {y})"),
+                    CmpOp::Eq => format!("(= {x} {y})"),
+                    CmpOp::Ne => format!("(not (= {x} {y}))"),
+                }
+            }
+            PCond::And(a, b) => format!("(and {} {})", self.cond(a)?, self.cond(b)?),
+            PCond::Or(a, b) => format!("(or {} {})", self.cond(a)?, self.cond(b)?),
+            PCond::Not(a) => format!("(not {})", self.cond(a)?),
+        })
+    }
+}
+
+/// The signed type holding `[lo, hi]` as an SMT width, for declaring free parameters.
+pub fn width_for(lo: i128, hi: i128) -> u32 {
+    signed_bits(lo, hi)
+}
+
+/// Whether a storage type is signed (for declaring `in_*`/`pre_*` premises).
+pub fn is_signed(t: IntTy) -> bool {
+    t.signed
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn literals_are_twos_complement() {
+        assert_eq!(lit(-1, 8), "(_ bv255 8)");
+        assert_eq!(lit(5, 4), "(_ bv5 4)");
+        assert_eq!(
+            lit(i64::MIN as i128, 64),
+            format!("(_ bv{} 64)", 1u128 << 63)
+        );
+    }
+
+    #[test]
+    fn signed_bits_is_tight() {
+        assert_eq!(signed_bits(-128, 127), 8);
+        assert_eq!(signed_bits(-129, 0), 9);
+        assert_eq!(signed_bits(0, 128), 9);
+        assert_eq!(signed_bits(0, 0), 1);
+        assert_eq!(signed_bits(-1, 0), 1);
+    }
+
+    #[test]
+    fn exact_binary_values() {
+        assert_eq!(exact_binary(0.9375), Some((15, 4)));
+        assert_eq!(exact_binary(-3.0), Some((-3, 0)));
+        let (m, f) = exact_binary(0.1).unwrap();
+        assert_eq!(m as f64 / 2f64.powi(f), 0.1);
+    }
+}
