@@ -107,6 +107,9 @@ enum Lang {
     Rust,
     /// The f64 reference controller compiled from the same spec.
     RustRef,
+    /// Proof harnesses (`<spec>_proofs`): Kani proofs that also run as bolero property tests.
+    /// Place the module next to the fixed-point one; needs `bolero` as a dev-dependency.
+    Kani,
 }
 
 /// A failure with its exit code.
@@ -137,6 +140,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
             let text = match lang {
                 Lang::Rust => qloop::gen_rust(&plan),
                 Lang::RustRef => qloop::gen_reference(&plan),
+                Lang::Kani => qloop::gen_kani(&plan),
             };
             match output {
                 Some(p) => write_atomic(&p, &text),

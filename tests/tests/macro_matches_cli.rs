@@ -1,5 +1,6 @@
-//! The `controller!` macro expands to exactly what `qloop gen --lang rust` writes: both go
-//! through `qloop::expand_macro`'s compiler and emitter, and this test compares the text.
+//! The `controller!` macro expands to exactly what `qloop gen --lang rust` (and `rust-ref`,
+//! `kani`) writes: both go through `qloop::expand_macro`'s compiler and emitter, and this test
+//! compares the text.
 
 use proc_macro2::TokenStream;
 use qloop_tests::{all_specs, specs_dir};
@@ -30,6 +31,8 @@ fn macro_expansion_equals_cli_output() {
         let cli = cli.strip_prefix(qloop::GEN_HEADER).unwrap();
         let cli_ref = qloop::gen_reference(&plan);
         let cli_ref = cli_ref.strip_prefix(qloop::GEN_HEADER).unwrap();
+        let cli_kani = qloop::gen_kani(&plan);
+        let cli_kani = cli_kani.strip_prefix(qloop::GEN_HEADER).unwrap();
 
         // File mode, as qloop-verified uses it.
         let path = format!("specs/{stem}.qloop");
@@ -45,6 +48,12 @@ fn macro_expansion_equals_cli_output() {
             cli_ref,
             "{stem}: reference"
         );
+        let kani_mode = qloop::expand_macro(quote!(#path, kani), Some(dir));
+        assert_eq!(
+            pretty(without_rebuild_hook(kani_mode)),
+            cli_kani,
+            "{stem}: kani"
+        );
 
         // Inline mode: the spec's tokens written inside `controller! { .. }`.
         let tokens: TokenStream = src.parse().unwrap();
@@ -54,6 +63,20 @@ fn macro_expansion_equals_cli_output() {
             "{stem}: inline"
         );
     }
+}
+
+#[test]
+fn file_mode_rejects_unknown_modes() {
+    let dir = verified_dir();
+    let out = qloop::expand_macro(quote!("specs/koren_masory_1981.qloop", proofs), Some(&dir))
+        .to_string();
+    assert!(out.contains("compile_error"), "{out}");
+    assert!(out.contains("kani"), "the error lists the modes: {out}");
+}
+
+/// `verified/`, the crate the file paths are relative to.
+fn verified_dir() -> String {
+    specs_dir().parent().unwrap().to_str().unwrap().to_string()
 }
 
 #[test]

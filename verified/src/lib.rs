@@ -6,9 +6,14 @@
 //! * [`acc_fixed_gain`]: conventional ACC with a fixed gain (002_39e44efc2e4f2eb6.txt eqs. 6-9).
 //!
 //! The `*_ref` modules are the f64 reference controllers compiled from the same specs.
+//!
+//! The `*_proofs` modules (`cfg(test)` only) are the proof harnesses of each spec: Kani proofs
+//! under `cargo kani --tests -p qloop-verified`, bolero property tests under `cargo test`.
 #![no_std]
 
 qloop_macros::controller!("specs/koren_masory_1981.qloop");
 qloop_macros::controller!("specs/koren_masory_1981.qloop", reference);
+qloop_macros::controller!("specs/koren_masory_1981.qloop", kani);
 qloop_macros::controller!("specs/acc_fixed_gain.qloop");
 qloop_macros::controller!("specs/acc_fixed_gain.qloop", reference);
+qloop_macros::controller!("specs/acc_fixed_gain.qloop", kani);

@@ -1,5 +1,7 @@
-//! Emitters: fixed-point Rust, the f64 reference controller, and shared doc text.
+//! Emitters: fixed-point Rust, the f64 reference controller, proof harnesses, and shared doc
+//! text.
 
+pub mod kani;
 pub mod reference;
 pub mod rust;
 

@@ -42,6 +42,60 @@ pub enum T {
     Shr(Rc<T>, u32),
     /// `if c { a } else { b }`.
     Ite(Rc<B>, Rc<T>, Rc<T>),
+    /// Linear normal form `Σ cᵢ·aᵢ + c`: atoms sorted, merged, none zero.
+    Sum(Vec<(i128, Rc<T>)>, i128),
+}
+
+/// A linear combination of atoms, as a map, and a constant.
+type Lin = (BTreeMap<Rc<T>, i128>, i128);
+
+/// The linear normal form of `t`.
+fn lin(t: &Rc<T>) -> Lin {
+    let mut m: BTreeMap<Rc<T>, i128> = BTreeMap::new();
+    match &**t {
+        T::Const(c) => return (m, *c),
+        T::Sum(terms, c) => {
+            for (k, a) in terms {
+                *m.entry(a.clone()).or_insert(0) += k;
+            }
+            return (m, *c);
+        }
+        T::Add(a, b) | T::Sub(a, b) => {
+            let (ma, ca) = lin(a);
+            let (mb, cb) = lin(b);
+            let sign = if matches!(**t, T::Sub(..)) { -1 } else { 1 };
+            m = ma;
+            for (k, v) in mb {
+                *m.entry(k).or_insert(0) += sign * v;
+            }
+            return (m, ca + sign * cb);
+        }
+        T::Neg(a) => {
+            let (ma, ca) = lin(a);
+            return (ma.into_iter().map(|(k, v)| (k, -v)).collect(), -ca);
+        }
+        T::Shl(a, k) => {
+            let (ma, ca) = lin(a);
+            return (ma.into_iter().map(|(x, v)| (x, v << k)).collect(), ca << k);
+        }
+        _ => {}
+    }
+    m.insert(t.clone(), 1);
+    (m, 0)
+}
+
+/// The term of a linear combination.
+fn from_lin((m, c): Lin) -> Rc<T> {
+    let terms: Vec<(i128, Rc<T>)> = m
+        .into_iter()
+        .filter(|(_, k)| *k != 0)
+        .map(|(a, k)| (k, a))
+        .collect();
+    match terms.as_slice() {
+        [] => Rc::new(T::Const(c)),
+        [(1, a)] if c == 0 => a.clone(),
+        _ => Rc::new(T::Sum(terms, c)),
+    }
 }
 
 /// An exact boolean term.
@@ -58,76 +112,103 @@ pub enum B {
 }
 
 fn add(a: Rc<T>, b: Rc<T>) -> Rc<T> {
-    match (&*a, &*b) {
-        (T::Const(x), T::Const(y)) => Rc::new(T::Const(x + y)),
-        (T::Const(0), _) => b,
-        (_, T::Const(0)) => a,
-        _ => Rc::new(T::Add(a, b)),
+    let (mut m, c) = lin(&a);
+    let (mb, cb) = lin(&b);
+    for (k, v) in mb {
+        *m.entry(k).or_insert(0) += v;
     }
+    from_lin((m, c + cb))
 }
 
 fn sub(a: Rc<T>, b: Rc<T>) -> Rc<T> {
-    match (&*a, &*b) {
-        (T::Const(x), T::Const(y)) => Rc::new(T::Const(x - y)),
-        (_, T::Const(0)) => a,
-        _ => Rc::new(T::Sub(a, b)),
-    }
+    add(a, neg(b))
 }
 
 fn neg(a: Rc<T>) -> Rc<T> {
-    match &*a {
-        T::Const(x) => Rc::new(T::Const(-x)),
-        T::Neg(x) => x.clone(),
-        _ => Rc::new(T::Neg(a)),
-    }
+    let (m, c) = lin(&a);
+    from_lin((m.into_iter().map(|(k, v)| (k, -v)).collect(), -c))
 }
 
 fn shl(a: Rc<T>, k: u32) -> Rc<T> {
     if k == 0 {
         return a;
     }
-    match &*a {
-        T::Const(x) => Rc::new(T::Const(x << k)),
-        _ => Rc::new(T::Shl(a, k)),
-    }
+    let (m, c) = lin(&a);
+    from_lin((m.into_iter().map(|(x, v)| (x, v << k)).collect(), c << k))
 }
 
 /// Product, distributed over `+`, `-`, negation and `ite`, with canonical operand order.
 pub fn mul(a: Rc<T>, b: Rc<T>) -> Rc<T> {
-    match (&*a, &*b) {
-        (T::Const(x), T::Const(y)) => return Rc::new(T::Const(x * y)),
-        (T::Const(0), _) | (_, T::Const(0)) => return Rc::new(T::Const(0)),
-        (T::Const(1), _) => return b,
-        (_, T::Const(1)) => return a,
-        _ => {}
+    if let T::Ite(c, x, y) = &*a {
+        return ite(c.clone(), mul(x.clone(), b.clone()), mul(y.clone(), b));
     }
-    match (&*a, &*b) {
-        (T::Ite(c, x, y), _) => Rc::new(T::Ite(
-            c.clone(),
-            mul(x.clone(), b.clone()),
-            mul(y.clone(), b),
-        )),
-        (_, T::Ite(c, x, y)) => Rc::new(T::Ite(
-            c.clone(),
-            mul(a.clone(), x.clone()),
-            mul(a, y.clone()),
-        )),
-        (T::Add(x, y), _) => add(mul(x.clone(), b.clone()), mul(y.clone(), b)),
-        (_, T::Add(x, y)) => add(mul(a.clone(), x.clone()), mul(a, y.clone())),
-        (T::Sub(x, y), _) => sub(mul(x.clone(), b.clone()), mul(y.clone(), b)),
-        (_, T::Sub(x, y)) => sub(mul(a.clone(), x.clone()), mul(a, y.clone())),
-        (T::Neg(x), _) => neg(mul(x.clone(), b)),
-        (_, T::Neg(y)) => neg(mul(a, y.clone())),
-        (T::Shl(x, k), _) => shl(mul(x.clone(), b), *k),
-        (_, T::Shl(y, k)) => shl(mul(a, y.clone()), *k),
-        _ => {
-            if a <= b {
-                Rc::new(T::Mul(a, b))
-            } else {
-                Rc::new(T::Mul(b, a))
+    if let T::Ite(c, x, y) = &*b {
+        return ite(c.clone(), mul(a.clone(), x.clone()), mul(a, y.clone()));
+    }
+    let ((ma, ca), (mb, cb)) = (lin(&a), lin(&b));
+    let mut m: BTreeMap<Rc<T>, i128> = BTreeMap::new();
+    for (x, kx) in &ma {
+        for (y, ky) in &mb {
+            *m.entry(product(x.clone(), y.clone())).or_insert(0) += kx * ky;
+        }
+        if cb != 0 {
+            *m.entry(x.clone()).or_insert(0) += kx * cb;
+        }
+    }
+    if ca != 0 {
+        for (y, ky) in &mb {
+            *m.entry(y.clone()).or_insert(0) += ca * ky;
+        }
+    }
+    from_lin((m, ca * cb))
+}
+
+/// `a + b` in linear normal form.
+pub fn add_terms(a: Rc<T>, b: Rc<T>) -> Rc<T> {
+    add(a, b)
+}
+
+/// `a · 2^k` in linear normal form.
+pub fn shl_term(a: Rc<T>, k: u32) -> Rc<T> {
+    shl(a, k)
+}
+
+/// The variables a term mentions.
+pub fn vars_of(t: &Rc<T>) -> Vec<Rc<T>> {
+    fn go(t: &Rc<T>, out: &mut Vec<Rc<T>>) {
+        match &**t {
+            T::Var(..) => {
+                if !out.contains(t) {
+                    out.push(t.clone());
+                }
+            }
+            T::Const(_) => {}
+            T::Add(a, b) | T::Sub(a, b) | T::Mul(a, b) => {
+                go(a, out);
+                go(b, out);
+            }
+            T::Neg(a) | T::Shl(a, _) | T::Shr(a, _) => go(a, out),
+            T::Ite(_, a, b) => {
+                go(a, out);
+                go(b, out);
+            }
+            T::Sum(terms, _) => {
+                for (_, a) in terms {
+                    go(a, out);
+                }
             }
         }
     }
+    let mut out = Vec::new();
+    go(t, &mut out);
+    out
+}
+
+/// Whether `t` mentions a variable named in `names`.
+fn mentions(t: &Rc<T>, names: &[String]) -> bool {
+    vars_of(t)
+        .iter()
+        .any(|v| matches!(&**v, T::Var(n, ..) if names.contains(n)))
 }
 
 /// Product without distribution, in canonical operand order.
@@ -392,6 +473,13 @@ pub struct Emitter {
     bnames: HashMap<Rc<B>, String>,
     ranges: HashMap<Rc<T>, (i128, i128)>,
     declared: BTreeMap<String, String>,
+    /// Over-approximate: products whose variables are all outside `keep` become fresh
+    /// variables bounded by their interval.
+    pub abstract_products: bool,
+    /// Variables whose products stay exact when abstracting (free parameters).
+    pub keep: Vec<String>,
+    /// Range premises of abstracted products.
+    pub premises: Vec<String>,
 }
 
 impl Emitter {
@@ -432,6 +520,16 @@ impl Emitter {
                 let (x, y) = (self.range(a), self.range(b));
                 (x.0.min(y.0), x.1.max(y.1))
             }
+            T::Sum(terms, c) => {
+                let (mut lo, mut hi) = (*c, *c);
+                for (k, a) in terms {
+                    let (x, y) = self.range(a);
+                    let (p, q) = (k * x, k * y);
+                    lo += p.min(q);
+                    hi += p.max(q);
+                }
+                (lo, hi)
+            }
         };
         self.ranges.insert(t.clone(), r);
         r
@@ -461,6 +559,15 @@ impl Emitter {
                 }
             }
             T::Const(c) => (lit(*c, own), own),
+            T::Mul(..) if self.abstract_products && !mentions(t, &self.keep) => {
+                let name = format!("q{}", self.names.len() + self.bnames.len());
+                self.declared.insert(
+                    name.clone(),
+                    format!("(declare-fun {name} () (_ BitVec {own}))\n"),
+                );
+                self.premises.push(super::smt::in_range(&name, own, lo, hi));
+                (name, own)
+            }
             _ => {
                 let (body, w) = self.body(t, own);
                 let name = format!("e{}", self.names.len() + self.bnames.len());
@@ -513,6 +620,29 @@ impl Emitter {
                 let (x, y) = (self.at(a, w), self.at(b, w));
                 (format!("(ite {c} {x} {y})"), w)
             }
+            T::Sum(terms, c) => {
+                let mut w = own;
+                for (k, a) in terms {
+                    let (x, y) = self.range(a);
+                    w = w
+                        .max(signed_bits((k * x).min(k * y), (k * x).max(k * y)))
+                        .max(self.term(a).1 + 1);
+                }
+                let mut acc = lit(*c, w);
+                for (k, a) in terms {
+                    let x = self.at(a, w);
+                    let term = match *k {
+                        1 => x,
+                        -1 => format!("(bvneg {x})"),
+                        k if k > 0 && k.count_ones() == 1 => {
+                            format!("(bvshl {x} {})", lit(k.trailing_zeros() as i128, w))
+                        }
+                        k => format!("(bvmul {} {x})", lit(k, w)),
+                    };
+                    acc = format!("(bvadd {acc} {term})");
+                }
+                (acc, w)
+            }
             T::Var(..) | T::Const(_) => (String::new(), own),
         }
     }
@@ -561,12 +691,19 @@ mod tests {
         let lhs = mul(add(kc.clone(), d.clone()), km.clone());
         let kckm = mul(km.clone(), kc.clone());
         match &*lhs {
-            T::Add(a, b) => {
-                assert_eq!(*a, kckm);
-                assert_eq!(*b, mul(d, km));
+            T::Sum(terms, 0) => {
+                assert!(terms.contains(&(1, kckm)), "{terms:?}");
+                assert!(terms.contains(&(1, mul(d, km))), "{terms:?}");
+                assert_eq!(terms.len(), 2);
             }
             other => panic!("not distributed: {other:?}"),
         }
+        // Linear cancellation: (16·km + D) − 16·km = D.
+        let dd = var("dd");
+        assert_eq!(
+            sub(add(shl(var("km"), 4), dd.clone()), shl(var("km"), 4)),
+            dd
+        );
     }
 
     #[test]

@@ -95,7 +95,7 @@ pub struct ParamGrid {
     pub var: String,
     /// Width.
     pub width: u32,
-    /// Fraction bits: the finest signal format plus 4.
+    /// Fraction bits: those of the finest signal format.
     pub frac: i32,
     /// Raw bounds.
     pub lo: i128,
@@ -111,8 +111,7 @@ pub fn param_grids(plan: &Plan, p: usize) -> Vec<ParamGrid> {
         .flatten()
         .map(|q| q.frac)
         .max()
-        .unwrap_or(0)
-        + 4;
+        .unwrap_or(0);
     plan.prog.properties[p]
         .params
         .iter()
@@ -214,11 +213,22 @@ pub fn obligations(plan: &Plan) -> Vec<Obligation> {
             plan,
             Side::Initial,
             &[],
+            &[],
             &|pt| pt.cond(&inv.cond),
             0..0,
             &[],
+            false,
         );
-        let step = exact_query(plan, Side::Step, &[], &|pt| pt.cond(&inv.cond), 0..0, &[]);
+        let step = exact_query(
+            plan,
+            Side::Step,
+            &[],
+            &[],
+            &|pt| pt.cond(&inv.cond),
+            0..0,
+            &[],
+            false,
+        );
         if let (Some(init), Some(step)) = (init, step) {
             out.push(Obligation {
                 name: format!("invariant {} holds initially", inv.name),
@@ -237,23 +247,32 @@ pub fn obligations(plan: &Plan) -> Vec<Obligation> {
         }
     }
 
-    // (d) properties, over exact terms (see `exact`).
+    // (d) properties: a portfolio of encodings, merged by `prove` (any sound proof counts).
     for (k, p) in prog.properties.iter().enumerate() {
         let grids = param_grids(plan, k);
-        let q = exact_query(
-            plan,
-            Side::Property,
-            &p.assumes,
-            &|pt| {
-                let parts: Option<Vec<Rc<B>>> = p.ensures.iter().map(|c| pt.cond(c)).collect();
-                parts?.into_iter().reduce(|x, y| Rc::new(B::And(x, y)))
-            },
-            0..grids.len(),
-            &grids,
-        );
+        let goal = |pt: &PropTerms| -> Option<Rc<B>> {
+            let parts: Option<Vec<Rc<B>>> = p.ensures.iter().map(|c| pt.cond(c)).collect();
+            parts?.into_iter().reduce(|x, y| Rc::new(B::And(x, y)))
+        };
+        let exact = |abstracted: bool| {
+            exact_query(
+                plan,
+                Side::Property,
+                &p.assumes,
+                &p.ensures,
+                &goal,
+                0..grids.len(),
+                &grids,
+                abstracted,
+            )
+        };
         let direct = direct_property_query(plan, &enc, &paths, &post_cone, k, &grids, &want_step);
         let line = p.span.start().line;
-        for (query, how) in [(q, "exact terms"), (direct, "bit-precise")] {
+        for (query, how) in [
+            (exact(false), "exact terms"),
+            (exact(true), "abstracted products"),
+            (direct, "bit-precise"),
+        ] {
             if let Some(query) = query {
                 out.push(Obligation {
                     name: format!("property {} [{how}]", p.name),
@@ -721,13 +740,16 @@ enum Side {
 
 /// A query over exact terms: premises (state ranges, invariants, input ranges for
 /// properties, parameter ranges, `assumes`) ⇒ `goal`.
+#[allow(clippy::too_many_arguments)]
 fn exact_query(
     plan: &Plan,
     side: Side,
     assumes: &[PCond],
+    goal_conds: &[PCond],
     goal: &dyn Fn(&PropTerms) -> Option<Rc<B>>,
     params: std::ops::Range<usize>,
     grids: &[ParamGrid],
+    abstract_products: bool,
 ) -> Option<Query> {
     let prog = &plan.prog;
     let ranges = |id: SigId| -> (i128, i128) {
@@ -745,15 +767,55 @@ fn exact_query(
         }
     };
     let terms = exact::terms(plan, &ranges);
-    let params_t: Vec<(Rc<T>, i32)> = grids[params]
+    let mut em = exact::Emitter::default();
+    // Over-approximation: each product not involving a free parameter becomes a fresh
+    // variable bounded by its interval (shared wherever the same product occurs). Sound:
+    // more behaviours, not fewer; a counterexample it finds may be spurious, and the replay
+    // says so.
+    em.abstract_products = abstract_products;
+    em.keep = grids
         .iter()
-        .map(|g| {
-            (
-                Rc::new(T::Var(g.var.clone(), g.width, true, g.lo, g.hi)),
-                g.frac,
-            )
-        })
+        .flat_map(|g| [g.var.clone(), format!("d_{}", g.var)])
         .collect();
+    let mut premises: Vec<String> = Vec::new();
+    // A free parameter p compared with a state s (`p - s` in the property) is rewritten as
+    // p = s + D with a fresh D: a change of variables (exact, both ways), after which the
+    // linear normal form cancels s and shares s's products with the step's own terms.
+    let subst = match side {
+        Side::Property => param_state_pairs(plan, assumes, goal_conds),
+        _ => BTreeMap::new(),
+    };
+    let mut params_t: Vec<(Rc<T>, i32)> = Vec::new();
+    for (i, g) in grids[params].iter().enumerate() {
+        let pv = Rc::new(T::Var(g.var.clone(), g.width, true, g.lo, g.hi));
+        let state = subst.get(&i).copied();
+        let shift = state.map_or(-1, |s| g.frac - plan.format(s).frac);
+        match state {
+            Some(s) if shift >= 0 => {
+                let (slo, shi) = ranges(s);
+                let (dlo, dhi) = (g.lo - (shi << shift), g.hi - (slo << shift));
+                let d = Rc::new(T::Var(
+                    format!("d_{}", g.var),
+                    exact_width(dlo, dhi),
+                    true,
+                    dlo,
+                    dhi,
+                ));
+                let t = exact::add_terms(exact::shl_term(terms.pre[&s].clone(), shift as u32), d);
+                // Keep p in the model (for replay): p = s·2^shift + D, inside p's grid range.
+                let (pn, pw) = em.term(&pv);
+                let (tn, tw) = em.term(&t);
+                let w = pw.max(tw);
+                premises.push(format!(
+                    "(= {} {})",
+                    resize(&pn, pw, w, true),
+                    resize(&tn, tw, w, true)
+                ));
+                params_t.push((t, g.frac));
+            }
+            _ => params_t.push((pv, g.frac)),
+        }
+    }
     let pre_env = PropTerms {
         plan,
         terms: &terms,
@@ -766,11 +828,15 @@ fn exact_query(
         params: params_t.clone(),
         pre_as_post: true,
     };
-    let mut em = exact::Emitter::default();
-    let mut premises: Vec<String> = Vec::new();
     // Every variable inside its assumed range.
     let mut vars: Vec<Rc<T>> = terms.pre.values().cloned().collect();
     vars.extend(params_t.iter().map(|(t, _)| t.clone()));
+    vars.extend(
+        grids
+            .iter()
+            .map(|g| Rc::new(T::Var(g.var.clone(), g.width, true, g.lo, g.hi))),
+    );
+    let vars: Vec<Rc<T>> = vars.iter().flat_map(exact::vars_of).collect();
     for v in &vars {
         if let T::Var(_, _, _, lo, hi) = &**v {
             let (n, w) = em.term(v);
@@ -790,6 +856,7 @@ fn exact_query(
         _ => goal(&pre_env)?,
     };
     let goal = em.boolean(&g);
+    premises.append(&mut em.premises);
     let mut text = String::from("(set-logic QF_BV)\n");
     text.push_str(&em.declarations());
     text.push_str(&em.text);
@@ -866,4 +933,54 @@ fn direct_property_query(
         1,
     );
     Some(q)
+}
+
+fn exact_width(lo: i128, hi: i128) -> u32 {
+    signed_bits(lo, hi)
+}
+
+/// Free parameters that a property compares with a pre-step state (`p - s` or `s - p`).
+fn param_state_pairs(plan: &Plan, assumes: &[PCond], ensures: &[PCond]) -> BTreeMap<usize, SigId> {
+    use crate::ir::{PExpr, When};
+    fn e(x: &PExpr, plan: &Plan, out: &mut BTreeMap<usize, SigId>) {
+        match x {
+            PExpr::Sub(a, b) => {
+                match (&**a, &**b) {
+                    (PExpr::Param(i), PExpr::Sig(s, When::Pre))
+                    | (PExpr::Sig(s, When::Pre), PExpr::Param(i))
+                        if plan.prog.sig(*s).kind == SigKind::State =>
+                    {
+                        out.entry(*i).or_insert(*s);
+                    }
+                    _ => {}
+                }
+                e(a, plan, out);
+                e(b, plan, out);
+            }
+            PExpr::Neg(a) | PExpr::Abs(a) => e(a, plan, out),
+            PExpr::Add(a, b) | PExpr::Mul(a, b) | PExpr::Min(a, b) | PExpr::Max(a, b) => {
+                e(a, plan, out);
+                e(b, plan, out);
+            }
+            _ => {}
+        }
+    }
+    fn c(x: &PCond, plan: &Plan, out: &mut BTreeMap<usize, SigId>) {
+        match x {
+            PCond::Cmp(_, a, b) => {
+                e(a, plan, out);
+                e(b, plan, out);
+            }
+            PCond::And(a, b) | PCond::Or(a, b) => {
+                c(a, plan, out);
+                c(b, plan, out);
+            }
+            PCond::Not(a) => c(a, plan, out),
+        }
+    }
+    let mut out = BTreeMap::new();
+    for x in assumes.iter().chain(ensures) {
+        c(x, plan, &mut out);
+    }
+    out
 }
