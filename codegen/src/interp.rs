@@ -44,6 +44,26 @@ pub fn step_fixed(plan: &Plan, vars: &mut [i128]) -> Result<Vec<bool>, RangeViol
     Ok(m.decisions)
 }
 
+/// Like [`step_fixed`], and also returns every value the step computed (`None` for values
+/// in branches not taken). Used to check other models of the plan, value by value.
+pub fn step_fixed_trace(
+    plan: &Plan,
+    vars: &mut [i128],
+) -> Result<Vec<Option<i128>>, RangeViolation> {
+    let mut m = Machine {
+        plan,
+        vals: vec![0; plan.vals.len()],
+        decisions: Vec::new(),
+    };
+    let mut seen = vec![false; plan.vals.len()];
+    m.block_traced(&plan.body, vars, &mut seen)?;
+    Ok(m.vals
+        .iter()
+        .zip(seen)
+        .map(|(v, s)| s.then_some(*v))
+        .collect())
+}
+
 struct Machine<'a> {
     plan: &'a Plan,
     vals: Vec<i128>,
@@ -73,6 +93,32 @@ impl Machine<'_> {
                     } else {
                         self.block(e, vars)?
                     }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn block_traced(
+        &mut self,
+        stmts: &[LStmt],
+        vars: &mut [i128],
+        seen: &mut [bool],
+    ) -> Result<(), RangeViolation> {
+        for s in stmts {
+            match s {
+                LStmt::If(c, t, e) => {
+                    if self.vals[c.0] != 0 {
+                        self.block_traced(t, vars, seen)?
+                    } else {
+                        self.block_traced(e, vars, seen)?
+                    }
+                }
+                other => {
+                    if let LStmt::Def(id) = other {
+                        seen[id.0] = true;
+                    }
+                    self.block(std::slice::from_ref(other), vars)?
                 }
             }
         }

@@ -82,6 +82,8 @@ enum Cmd {
         target: String,
     },
     /// Run check, gen and prove on the built-in Koren–Masory (1981) spec; write to ./qloop-demo/.
+    ///
+    /// The proofs need z3 and/or cvc5 (skipped with a note if neither is installed).
     Demo {
         /// Output directory.
         #[arg(long, default_value = "qloop-demo")]
@@ -359,5 +361,38 @@ fn demo(out: &Path) -> Result<(), Fail> {
         write_atomic(&p, text)?;
         println!("wrote {}", p.display());
     }
-    Ok(())
+    // The proof step: every obligation, with the verdict cache (an unchanged spec re-proves
+    // instantly).
+    println!();
+    let missing: Vec<&str> = qloop::prove::solver::Solver::ALL
+        .iter()
+        .filter(|s| !s.available())
+        .map(|s| s.name())
+        .collect();
+    if missing.len() == qloop::prove::solver::Solver::ALL.len() {
+        println!("skipping the proofs: no SMT solver installed (apt-get install z3 cvc5)");
+        return Ok(());
+    }
+    let cfg = solver_config(Solvers::Both, 300, None, None, false)?;
+    println!(
+        "proving every obligation with {} (first run: a few minutes; then cached) ...",
+        cfg.solvers
+            .iter()
+            .map(|s| s.name())
+            .collect::<Vec<_>>()
+            .join(" and ")
+    );
+    let report = run_prove(&plan, &cfg, None);
+    let table = report.table(&plan);
+    print!("{table}");
+    for (f, text) in [("prove.txt", table), ("prove.json", report.json())] {
+        let p = out.join(f);
+        write_atomic(&p, &text)?;
+        println!("wrote {}", p.display());
+    }
+    if report.proved() {
+        Ok(())
+    } else {
+        Err(Fail(1))
+    }
 }

@@ -92,7 +92,17 @@ pub fn prove_filtered(
         .filter(|o| only.is_none_or(|t| o.name.contains(t)))
         .collect();
     let queries: Vec<Query> = obs.iter().map(|o| o.query.clone()).collect();
-    let runs = solver::run_all(&queries, cfg, progress);
+    // The encodings of one property form a group: the first proof cancels the others.
+    let groups: Vec<usize> = obs
+        .iter()
+        .enumerate()
+        .map(|(i, o)| {
+            obs.iter()
+                .position(|x| portfolio(x) && portfolio(o) && x.goal == o.goal && x.kind == o.kind)
+                .unwrap_or(i)
+        })
+        .collect();
+    let runs = solver::run_all_grouped(&queries, &groups, cfg, progress);
     let mut outcomes: Vec<Outcome> = obs
         .into_iter()
         .zip(runs)
@@ -121,6 +131,12 @@ pub fn prove_filtered(
     }
 }
 
+/// Whether an obligation is one encoding among several of the same question (its name ends
+/// in `[encoding]`).
+fn portfolio(o: &Obligation) -> bool {
+    o.ob_is_portfolio()
+}
+
 /// A property is tried in two encodings (exact terms, bit-precise); merges them into one
 /// outcome: refuted if either replays a counterexample, else proved if either is proved.
 /// Each solver's answer is its best over the encodings.
@@ -129,10 +145,10 @@ fn merge_portfolio(outcomes: Vec<Outcome>) -> Vec<Outcome> {
     for o in outcomes {
         let same = out
             .iter_mut()
-            .find(|x| matches!(o.ob.goal, Goal::Property(_)) && x.ob.goal == o.ob.goal);
+            .find(|x| portfolio(&o.ob) && x.ob.goal == o.ob.goal && x.ob.kind == o.ob.kind);
         let Some(prev) = same else {
             let mut o = o;
-            if let (Goal::Property(_), Some(i)) = (&o.ob.goal, o.ob.name.find(" [")) {
+            if let (true, Some(i)) = (portfolio(&o.ob), o.ob.name.find(" [")) {
                 let how = o.ob.name[i + 2..].trim_end_matches(']').to_string();
                 o.ob.name.truncate(i);
                 if o.verdict == Verdict::Proved {
@@ -164,10 +180,12 @@ fn merge_portfolio(outcomes: Vec<Outcome>) -> Vec<Outcome> {
         }
         for r in o.runs {
             let better = |a: &Answer, b: &Answer| {
+                // A proof outranks a (possibly spurious) model of an over-approximation.
                 let k = |x: &Answer| match x {
+                    Answer::Unsat => 4,
                     Answer::Sat(_) => 3,
-                    Answer::Unsat => 2,
-                    Answer::Timeout => 1,
+                    Answer::Timeout => 2,
+                    Answer::Cancelled => 1,
                     Answer::Error(_) => 0,
                 };
                 k(a) > k(b)
@@ -235,6 +253,7 @@ pub fn answer_name(a: &Answer) -> String {
         Answer::Unsat => "proved".into(),
         Answer::Sat(_) => "refuted".into(),
         Answer::Timeout => "timeout".into(),
+        Answer::Cancelled => "cancelled".into(),
         Answer::Error(e) => format!("error ({})", e.lines().next().unwrap_or("")),
     }
 }
@@ -244,6 +263,7 @@ fn json_answer(a: &Answer) -> &'static str {
         Answer::Unsat => "proved",
         Answer::Sat(_) => "refuted",
         Answer::Timeout => "timeout",
+        Answer::Cancelled => "cancelled",
         Answer::Error(_) => "error",
     }
 }

@@ -43,6 +43,13 @@ pub enum Kind {
     Property,
 }
 
+impl Obligation {
+    /// Whether this is one encoding of several for the same question (name ends in `]`).
+    pub fn ob_is_portfolio(&self) -> bool {
+        self.name.ends_with(']') && self.name.contains(" [")
+    }
+}
+
 impl Kind {
     /// Lower-case name used in reports and JSON.
     pub fn name(self) -> &'static str {
@@ -162,8 +169,9 @@ pub fn obligations(plan: &Plan) -> Vec<Obligation> {
             continue;
         }
         let label = v.name.clone().unwrap_or_else(|| format!("_{i}"));
+        let claimed = if v.claimed { ", claimed" } else { "" };
         let name = format!(
-            "{label} ({}) in [{}, {}] ⊆ {}",
+            "{label} ({}{claimed}) in [{}, {}] ⊆ {}",
             op_name(&v.op),
             v.lo,
             v.hi,
@@ -238,12 +246,32 @@ pub fn obligations(plan: &Plan) -> Vec<Obligation> {
                 line,
             });
             out.push(Obligation {
-                name: format!("invariant {} is inductive", inv.name),
+                name: format!("invariant {} is inductive [exact terms]", inv.name),
                 kind: Kind::Inductive,
                 query: step,
                 goal: Goal::Invariant(k),
                 line,
             });
+            // The bit-precise encoding too: products of post-states distribute badly.
+            let none: Vec<(String, u32, i32)> = Vec::new();
+            let post_env = PropEnv {
+                plan,
+                post: &enc.post,
+                params: &none,
+                pre_as_post: true,
+            };
+            if let Some(goal) = post_env.cond(&inv.cond) {
+                let mut sigs = BTreeSet::new();
+                post_signals(&inv.cond, &mut sigs, true);
+                let needed = post_cone(&sigs);
+                out.push(Obligation {
+                    name: format!("invariant {} is inductive [bit-precise]", inv.name),
+                    kind: Kind::Inductive,
+                    query: step_query(plan, &enc, &paths, &needed, &[], &goal, &want_step, false),
+                    goal: Goal::Invariant(k),
+                    line,
+                });
+            }
         }
     }
 

@@ -330,10 +330,13 @@ pub fn describe(plan: &Plan, ob: &Obligation, cex: &Cex) -> Vec<String> {
                 } else {
                     "state"
                 };
-                by_name.insert(
-                    var,
-                    format!("{what} {} = {} {unit} (raw {v}, {q})", s.name, q.value(v)),
-                );
+                let mut line = format!("{what} {} = {} {unit} (raw {v}, {q})", s.name, q.value(v));
+                if let (true, Some((lo, hi))) = (what == "input", s.range) {
+                    if q.value(v) < lo || q.value(v) > hi {
+                        line.push_str(&format!("; step clamps it to [{lo}, {hi}]"));
+                    }
+                }
+                by_name.insert(var, line);
             }
         }
     }
@@ -358,4 +361,43 @@ pub fn describe(plan: &Plan, ob: &Obligation, cex: &Cex) -> Vec<String> {
             .or_insert_with(|| format!("operand {n} = raw {v} ({w} bits)"));
     }
     by_name.into_values().collect()
+}
+
+/// Evaluates property `k` exactly on raw pre-step values (inputs and states, by signal id),
+/// raw post-step values (states and outputs) and raw free parameters (on their grids):
+/// `Some(true)` if the assumptions fail or every conclusion holds.
+pub fn property_holds(
+    plan: &Plan,
+    k: usize,
+    pre: &[i128],
+    post: &[i128],
+    params: &[i128],
+) -> Option<bool> {
+    let grids = param_grids(plan, k);
+    let params: Vec<Q> = grids
+        .iter()
+        .zip(params)
+        .map(|(g, v)| Q {
+            raw: BigInt::from(*v),
+            frac: g.frac,
+        })
+        .collect();
+    let f = Frame {
+        plan,
+        pre,
+        post,
+        params: &params,
+    };
+    let p = &plan.prog.properties[k];
+    for a in &p.assumes {
+        if !f.cond(a)? {
+            return Some(true);
+        }
+    }
+    for e in &p.ensures {
+        if !f.cond(e)? {
+            return Some(false);
+        }
+    }
+    Some(true)
 }

@@ -48,7 +48,7 @@ use std::fs;
 use std::io::{self, Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitStatus, Stdio};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{mpsc, OnceLock};
 use std::thread;
 use std::time::{Duration, Instant};
@@ -120,6 +120,9 @@ pub enum Answer {
     /// bit-vector read as an UNSIGNED integer (u128) together with its width in bits.
     /// Entries follow [`Query::want`], names exactly as given there.
     Sat(Vec<(String, u128, u32)>),
+    /// Stopped early because another query of the same group (another encoding of the same
+    /// obligation) was proved first.
+    Cancelled,
     /// No answer within the timeout (the process was killed; or the solver's own time limit,
     /// set a little later as a backstop, stopped it first).
     Timeout,
@@ -184,6 +187,26 @@ pub fn run_all(
     cfg: &Config,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Vec<Vec<Run>> {
+    let groups: Vec<usize> = (0..queries.len()).collect();
+    run_all_grouped(queries, &groups, cfg, progress)
+}
+
+/// Like [`run_all`], where `groups[i]` names the group of query `i`: queries of one group
+/// are alternative encodings of one obligation. Once any of them is proved (`unsat`), the
+/// group's other runs are cancelled ([`Answer::Cancelled`]). Groups of one query run every
+/// solver to the end.
+pub fn run_all_grouped(
+    queries: &[Query],
+    groups: &[usize],
+    cfg: &Config,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Vec<Vec<Run>> {
+    let ngroups = groups.iter().copied().max().map_or(0, |g| g + 1);
+    let mut sizes = vec![0usize; ngroups];
+    for g in groups {
+        sizes[*g] += 1;
+    }
+    let proved: Vec<AtomicBool> = (0..ngroups).map(|_| AtomicBool::new(false)).collect();
     let solvers = &cfg.solvers;
     let per_query = solvers.len();
     let total = queries.len() * per_query;
@@ -201,14 +224,35 @@ pub fn run_all(
             if t >= total {
                 return None;
             }
-            let (qi, si) = (t / per_query, t % per_query);
+            // Solver-major order: every query's first solver, then the second: the encodings
+            // of one obligation run side by side, and the first proof cancels the rest.
+            let nq = queries.len();
+            let (qi, si) = (t % nq, t / nq);
+            let g = groups.get(qi).copied().unwrap_or(0);
+            let shared = sizes.get(g).copied().unwrap_or(1) > 1;
+            let flag = proved.get(g).filter(|_| shared);
+            if flag.is_some_and(|f| f.load(Ordering::Relaxed)) {
+                let run = Run {
+                    solver: solvers[si],
+                    answer: Answer::Cancelled,
+                    millis: 0,
+                    cached: false,
+                };
+                return Some((qi, si, run));
+            }
             let run = run_one(
                 solvers[si],
                 versions[si],
                 &texts[qi],
                 &queries[qi].want,
                 cfg,
+                flag,
             );
+            if run.answer == Answer::Unsat {
+                if let Some(f) = flag {
+                    f.store(true, Ordering::Relaxed);
+                }
+            }
             Some((qi, si, run))
         };
 
@@ -293,6 +337,7 @@ fn run_one(
     text: &str,
     want: &[String],
     cfg: &Config,
+    cancel: Option<&AtomicBool>,
 ) -> Run {
     let Some(version) = version else {
         return Run {
@@ -326,6 +371,7 @@ fn run_one(
         text,
         want,
         Duration::from_millis(cfg.timeout_ms),
+        cancel,
     );
     let millis = u64::try_from(start.elapsed().as_millis()).unwrap_or(u64::MAX);
     if let Some((dir, key)) = &cache {
@@ -364,6 +410,8 @@ struct Finished {
     status: Option<ExitStatus>,
     /// Whether the deadline passed and it was killed.
     timed_out: bool,
+    /// Whether it was killed because its group was already proved.
+    cancelled: bool,
     /// Its process id (for tests checking that it is gone).
     #[cfg_attr(not(test), allow(dead_code))]
     pid: u32,
@@ -376,6 +424,7 @@ fn run_process(
     args: &[String],
     input: &str,
     timeout: Duration,
+    cancel: Option<&AtomicBool>,
 ) -> io::Result<Finished> {
     let start = Instant::now();
     let mut child = Command::new(program)
@@ -414,7 +463,13 @@ fn run_process(
     // A timeout too large to represent means no deadline.
     let deadline = start.checked_add(timeout);
     let mut nap = Duration::from_millis(1);
+    let mut cancelled = false;
     let (status, timed_out) = loop {
+        if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+            let _ = child.kill();
+            cancelled = true;
+            break (child.wait().ok(), false);
+        }
         match child.try_wait() {
             Ok(Some(status)) => break (Some(status), false),
             Ok(None) => {}
@@ -446,6 +501,7 @@ fn run_process(
         stderr: collect(err_rx),
         status,
         timed_out,
+        cancelled,
         pid,
     })
 }
@@ -469,7 +525,14 @@ fn spawn_reader<R: Read + Send + 'static>(pipe: Option<R>) -> io::Result<mpsc::R
 
 /// The first line of `program --version`, if it runs, exits successfully and prints one.
 fn probe_version(program: &str) -> Option<String> {
-    let fin = run_process(program, &["--version".to_string()], "", VERSION_TIMEOUT).ok()?;
+    let fin = run_process(
+        program,
+        &["--version".to_string()],
+        "",
+        VERSION_TIMEOUT,
+        None,
+    )
+    .ok()?;
     if fin.timed_out || !fin.status.is_some_and(|s| s.success()) {
         return None;
     }
@@ -484,8 +547,9 @@ fn execute(
     text: &str,
     want: &[String],
     timeout: Duration,
+    cancel: Option<&AtomicBool>,
 ) -> Answer {
-    match run_process(program, args, text, timeout) {
+    match run_process(program, args, text, timeout, cancel) {
         Err(e) if e.kind() == io::ErrorKind::NotFound => {
             Answer::Error(format!("{program} is not installed ({e})"))
         }
@@ -496,6 +560,9 @@ fn execute(
 
 /// Turns a finished solver process into an [`Answer`].
 fn interpret(program: &str, want: &[String], fin: &Finished) -> Answer {
+    if fin.cancelled {
+        return Answer::Cancelled;
+    }
     if fin.timed_out {
         return Answer::Timeout;
     }
@@ -937,7 +1004,7 @@ fn encode_entry(key: &str, answer: &Answer) -> Option<String> {
                 let _ = writeln!(out, "{width} {value} {}", escape_name(name));
             }
         }
-        Answer::Timeout | Answer::Error(_) => return None,
+        Answer::Timeout | Answer::Cancelled | Answer::Error(_) => return None,
     }
     out.push_str("end\n");
     Some(out)
@@ -1258,8 +1325,14 @@ mod tests {
             // The solver's own limit is a minute away: only our kill can end it in time.
             let text = solver_text(&query(HARD_SCRIPT, &[]));
             let start = Instant::now();
-            let fin = run_process(s.name(), &s.args(60_000), &text, Duration::from_millis(200))
-                .unwrap_or_else(|e| panic!("{} did not start: {e}", s.name()));
+            let fin = run_process(
+                s.name(),
+                &s.args(60_000),
+                &text,
+                Duration::from_millis(200),
+                None,
+            )
+            .unwrap_or_else(|e| panic!("{} did not start: {e}", s.name()));
             let elapsed = start.elapsed();
             assert!(fin.timed_out, "{fin:?}");
             assert!(elapsed < Duration::from_millis(2200), "took {elapsed:?}");
@@ -1369,15 +1442,52 @@ mod tests {
     fn missing_binary_is_an_error() {
         let missing = "qloop-no-such-solver-binary";
         assert_eq!(probe_version(missing), None);
-        let answer = execute(missing, &[], "(check-sat)", &[], Duration::from_secs(5));
+        let answer = execute(
+            missing,
+            &[],
+            "(check-sat)",
+            &[],
+            Duration::from_secs(5),
+            None,
+        );
         assert!(
             matches!(&answer, Answer::Error(m) if m.contains("not installed")),
             "{answer:?}"
         );
-        let run = run_one(Solver::Z3, None, "(check-sat)", &[], &both(1000));
+        let run = run_one(Solver::Z3, None, "(check-sat)", &[], &both(1000), None);
         assert!(
             matches!(&run.answer, Answer::Error(m) if m.contains("not installed")),
             "{run:?}"
+        );
+    }
+
+    #[test]
+    fn a_proof_cancels_the_rest_of_its_group() {
+        // Query 0 is proved at once; query 1 (same group) would run for a minute.
+        let easy = Query {
+            script: "(set-logic QF_BV)\n(declare-fun x () (_ BitVec 8))\n(assert (= ((_ extract 0 0) (bvmul x #x02)) #b1))\n".into(),
+            want: vec![],
+        };
+        let hard = Query {
+            script: "(set-logic QF_BV)\n(declare-fun p () (_ BitVec 64))\n(declare-fun q () (_ BitVec 64))\n\
+(assert (= (bvmul ((_ zero_extend 32) ((_ extract 31 0) p)) ((_ zero_extend 32) ((_ extract 31 0) q))) #x0000c5beb0f6e7b1))\n\
+(assert (bvugt ((_ extract 31 0) p) #x00000001))\n(assert (bvugt ((_ extract 31 0) q) #x00000001))\n".into(),
+            want: vec![],
+        };
+        let cfg = Config {
+            solvers: vec![Solver::Z3],
+            timeout_ms: 60_000,
+            cache_dir: None,
+            jobs: 1,
+        };
+        let start = Instant::now();
+        let runs = run_all_grouped(&[easy, hard], &[0, 0], &cfg, &mut |_, _| {});
+        assert_eq!(runs[0][0].answer, Answer::Unsat);
+        assert_eq!(runs[1][0].answer, Answer::Cancelled);
+        assert!(
+            start.elapsed() < Duration::from_secs(10),
+            "{:?}",
+            start.elapsed()
         );
     }
 
@@ -1390,6 +1500,7 @@ mod tests {
                 "",
                 &want(&["x"]),
                 Duration::from_secs(10),
+                None,
             )
         };
         for script in [
@@ -1414,6 +1525,7 @@ mod tests {
             &"; padding\n".repeat(100_000),
             &[],
             Duration::from_millis(u64::MAX),
+            None,
         );
         assert_eq!(answer, Answer::Unsat);
     }
@@ -1426,8 +1538,14 @@ mod tests {
         let text = solver_text(&query(UNSAT_SCRIPT, &[]));
         assert!(text.ends_with("#b1))\n(check-sat)\n(exit)\n"), "{text}");
         for s in Solver::ALL {
-            let fin = run_process(s.name(), &s.args(30_000), &text, Duration::from_secs(30))
-                .unwrap_or_else(|e| panic!("{} did not start: {e}", s.name()));
+            let fin = run_process(
+                s.name(),
+                &s.args(30_000),
+                &text,
+                Duration::from_secs(30),
+                None,
+            )
+            .unwrap_or_else(|e| panic!("{} did not start: {e}", s.name()));
             assert_eq!(fin.stdout.trim(), "unsat", "{}: {fin:?}", s.name());
             assert!(fin.stderr.trim().is_empty(), "{}: {fin:?}", s.name());
             assert!(fin.status.is_some_and(|st| st.success()), "{fin:?}");

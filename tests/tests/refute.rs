@@ -1,0 +1,192 @@
+//! The refutation corpus: every spec in `tests/fixtures/refute/` must be refuted on the
+//! obligation its first line names (`// expect-refuted: ...`), and the counterexample must
+//! replay in the *compiled* generated code, not only in qloop's interpreter.
+//! Needs z3 and cvc5 (`.ci/run` installs them).
+
+use fixed::{FixedI16, FixedI32};
+use qloop::prove::solver::{Config, Solver};
+use qloop::prove::{Outcome, Verdict};
+use qloop::Plan;
+use std::path::PathBuf;
+
+qloop_macros::controller!("fixtures/refute/claimed_range_too_narrow.qloop");
+qloop_macros::controller!("fixtures/refute/missing_saturation.qloop");
+qloop_macros::controller!("fixtures/refute/c2_too_large.qloop");
+qloop_macros::controller!("fixtures/refute/csd_partial_sum.qloop");
+qloop_macros::controller!("fixtures/refute/property_sign_error.qloop");
+
+fn fixture(name: &str) -> (String, PathBuf) {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures/refute")
+        .join(format!("{name}.qloop"));
+    (std::fs::read_to_string(&p).expect("fixture"), p)
+}
+
+/// Proves the fixture and returns its plan and the outcome it must refute.
+fn refuted(name: &str) -> (Plan, Outcome) {
+    let (src, _) = fixture(name);
+    let expect = src
+        .lines()
+        .next()
+        .and_then(|l| l.strip_prefix("// expect-refuted: "))
+        .expect("first line names the refuted obligation")
+        .to_string();
+    assert!(
+        Solver::ALL.iter().all(|s| s.available()),
+        "z3 and cvc5 must be installed (apt-get install z3 cvc5)"
+    );
+    let plan = qloop::compile_str(&src, &qloop::Target::default()).expect("fixture compiles");
+    let cfg = Config {
+        solvers: Solver::ALL.to_vec(),
+        timeout_ms: 20_000,
+        cache_dir: None,
+        jobs: 2,
+    };
+    let report = qloop::prove::prove(&plan, &cfg, &mut |_, _| {});
+    let table = report.table(&plan);
+    let o = report
+        .outcomes
+        .iter()
+        .find(|o| o.ob.name.contains(&expect))
+        .unwrap_or_else(|| panic!("{name}: no obligation matching `{expect}`:\n{table}"))
+        .clone();
+    assert_eq!(
+        o.verdict,
+        Verdict::Refuted,
+        "{name}: `{}`:\n{table}",
+        o.ob.name
+    );
+    assert!(o.cex.is_some(), "{name}: refuted without a counterexample");
+    assert!(!report.proved());
+    (plan, o)
+}
+
+/// The counterexample's raw value of SMT variable `var`.
+fn cex(o: &Outcome, var: &str) -> i128 {
+    o.cex
+        .as_ref()
+        .and_then(|c| c.values.iter().find(|(n, ..)| n == var).map(|(_, v, _)| *v))
+        .unwrap_or_else(|| panic!("no `{var}` in the counterexample"))
+}
+
+fn slot(plan: &Plan, name: &str) -> usize {
+    plan.prog
+        .signals
+        .iter()
+        .position(|s| s.name == name)
+        .expect("signal")
+}
+
+#[test]
+fn claimed_range_too_narrow_wraps_in_compiled_code() {
+    let (_, o) = refuted("claimed_range_too_narrow");
+    let (x, y) = (cex(&o, "in_x"), cex(&o, "in_y"));
+    let out = claimed_range_too_narrow::Controller::new().step(claimed_range_too_narrow::Inputs {
+        x: FixedI16::from_bits(x as i16),
+        y: FixedI16::from_bits(y as i16),
+    });
+    // What the spec means: x - y with both clamped to [-2, 2].
+    let clamp = |v: i128| (v.clamp(-16384, 16384)) as f64 / 8192.0;
+    let want = clamp(x) - clamp(y);
+    let got = out.y_out.to_num::<f64>();
+    assert!(
+        (got - want).abs() > 1.0,
+        "no wrap observed: got {got}, want {want}"
+    );
+}
+
+#[test]
+fn missing_saturation_leaves_its_range_in_compiled_code() {
+    let (_, o) = refuted("missing_saturation");
+    let mut c = missing_saturation::Controller::new();
+    c.set_states(missing_saturation::States {
+        s: FixedI16::from_bits(cex(&o, "pre_s") as i16),
+    });
+    c.step(missing_saturation::Inputs {
+        x: FixedI16::from_bits(cex(&o, "in_x") as i16),
+    });
+    let s = c.states().s.to_num::<f64>();
+    assert!(!(-1.0..=1.0).contains(&s), "state stayed in range: {s}");
+}
+
+#[test]
+fn c2_too_large_breaks_contraction_in_compiled_code() {
+    let (plan, o) = refuted("c2_too_large");
+    let (km, kc) = (cex(&o, "in_km"), cex(&o, "pre_kc"));
+    let mut c = c2_too_large::Controller::new();
+    c.set_states(c2_too_large::States {
+        kc: FixedI16::from_bits(kc as i16),
+    });
+    c.step(c2_too_large::Inputs {
+        km: FixedI16::from_bits(km as i16),
+    });
+    let mut pre = vec![0i128; plan.prog.signals.len()];
+    pre[slot(&plan, "km")] = km;
+    pre[slot(&plan, "kc")] = kc;
+    let mut post = pre.clone();
+    post[slot(&plan, "kc")] = c.states().kc.to_bits().into();
+    assert_eq!(
+        qloop::prove::replay::property_holds(&plan, 0, &pre, &post, &[]),
+        Some(false)
+    );
+}
+
+#[test]
+fn csd_partial_sum_overflows_in_compiled_code() {
+    let (_, o) = refuted("csd_partial_sum");
+    let x = cex(&o, "in_x");
+    let run = std::panic::catch_unwind(|| {
+        csd_partial_sum::Controller::new().step(csd_partial_sum::Inputs {
+            x: FixedI32::from_bits(x as i32),
+        })
+    });
+    if cfg!(debug_assertions) {
+        // Debug builds check integer overflow: the partial sum 8x overflows i32.
+        assert!(run.is_err(), "the partial-sum overflow did not trap");
+    }
+}
+
+#[test]
+fn property_sign_error_is_false_in_compiled_code() {
+    let (plan, o) = refuted("property_sign_error");
+    let (fc, u) = (cex(&o, "in_fc"), cex(&o, "pre_u"));
+    let mut c = property_sign_error::Controller::new();
+    c.set_states(property_sign_error::States {
+        u: FixedI16::from_bits(u as i16),
+    });
+    let out = c.step(property_sign_error::Inputs {
+        fc: FixedI16::from_bits(fc as i16),
+    });
+    let mut pre = vec![0i128; plan.prog.signals.len()];
+    pre[slot(&plan, "fc")] = fc;
+    pre[slot(&plan, "u")] = u;
+    let mut post = pre.clone();
+    post[slot(&plan, "u")] = c.states().u.to_bits().into();
+    post[slot(&plan, "vf")] = out.vf.to_bits().into();
+    assert_eq!(
+        qloop::prove::replay::property_holds(&plan, 0, &pre, &post, &[]),
+        Some(false)
+    );
+}
+
+#[test]
+fn corpus_is_complete() {
+    // Every fixture in the folder has a replay test above.
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fixtures/refute");
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.path().file_stem().unwrap().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        [
+            "c2_too_large",
+            "claimed_range_too_narrow",
+            "csd_partial_sum",
+            "missing_saturation",
+            "property_sign_error"
+        ]
+    );
+}
