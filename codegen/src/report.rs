@@ -95,31 +95,9 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
         "LSB",
         "max |error|, one step (% of range)",
     ];
-    let mut w = head.map(str::len);
-    for r in &rows {
-        for (i, c) in r.iter().enumerate() {
-            w[i] = w[i].max(c.chars().count());
-        }
-    }
-    let line = |cells: &[String]| {
-        let mut s = String::new();
-        for (i, c) in cells.iter().enumerate() {
-            let _ = write!(s, "{:<width$}  ", c, width = w[i]);
-        }
-        s.trim_end().to_string()
-    };
-    let _ = writeln!(o, "{}", line(&head.map(String::from)));
-    let _ = writeln!(
-        o,
-        "{}",
-        w.iter()
-            .map(|n| "-".repeat(*n))
-            .collect::<Vec<_>>()
-            .join("  ")
-    );
-    for r in &rows {
-        let _ = writeln!(o, "{}", line(r));
-    }
+    let head: Vec<String> = head.iter().map(|h| h.to_string()).collect();
+    let rows: Vec<Vec<String>> = rows.into_iter().map(Vec::from).collect();
+    o.push_str(&table(&head, &rows));
     let _ = writeln!(o);
     let _ = writeln!(o, "Constant multiplications:");
     if plan.mults.is_empty() {
@@ -162,6 +140,34 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
         "Errors are one-step bounds against real arithmetic from the same state and inputs, \
 assuming both take the same branches."
     );
+    o
+}
+
+/// A plain-text table: left-aligned columns two spaces apart, a dashed rule under the head.
+pub fn table(head: &[String], rows: &[Vec<String>]) -> String {
+    let mut w: Vec<usize> = head.iter().map(|h| h.chars().count()).collect();
+    for r in rows {
+        for (i, c) in r.iter().enumerate() {
+            if let Some(x) = w.get_mut(i) {
+                *x = (*x).max(c.chars().count());
+            }
+        }
+    }
+    let line = |cells: &[String]| {
+        let mut s = String::new();
+        for (c, width) in cells.iter().zip(&w) {
+            let pad = width.saturating_sub(c.chars().count());
+            let _ = write!(s, "{c}{}  ", " ".repeat(pad));
+        }
+        s.trim_end().to_string()
+    };
+    let mut o = String::new();
+    let _ = writeln!(o, "{}", line(head));
+    let rule: Vec<String> = w.iter().map(|n| "-".repeat(*n)).collect();
+    let _ = writeln!(o, "{}", rule.join("  "));
+    for r in rows {
+        let _ = writeln!(o, "{}", line(r));
+    }
     o
 }
 

@@ -656,14 +656,7 @@ impl Emitter {
             B::Cmp(op, x, y) => {
                 let w = self.term(x).1.max(self.term(y).1);
                 let (x, y) = (self.at(x, w), self.at(y, w));
-                match op {
-                    CmpOp::Lt => format!("(bvslt {x} {y})"),
-                    CmpOp::Le => format!("(bvsle {x} {y})"),
-                    CmpOp::Gt => format!("(bvsgt {x} {y})"),
-                    CmpOp::Ge => format!("(bvsge {x} {y})"),
-                    CmpOp::Eq => format!("(= {x} {y})"),
-                    CmpOp::Ne => format!("(not (= {x} {y}))"),
-                }
+                super::smt::signed_cmp(*op, &x, &y)
             }
             B::And(x, y) => format!("(and {} {})", self.boolean(x), self.boolean(y)),
             B::Or(x, y) => format!("(or {} {})", self.boolean(x), self.boolean(y)),

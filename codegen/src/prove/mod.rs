@@ -313,32 +313,7 @@ impl Report {
             "verdict".into(),
         ];
         head.extend(solvers.iter().map(|s| s.name().to_string()));
-        let mut w: Vec<usize> = head.iter().map(|h| h.chars().count()).collect();
-        for r in &rows {
-            for (i, c) in r.iter().enumerate() {
-                w[i] = w[i].max(c.chars().count());
-            }
-        }
-        let line = |cells: &[String]| {
-            let mut s = String::new();
-            for (i, c) in cells.iter().enumerate() {
-                let pad = w[i].saturating_sub(c.chars().count());
-                let _ = write!(s, "{c}{}  ", " ".repeat(pad));
-            }
-            s.trim_end().to_string()
-        };
-        let _ = writeln!(o, "{}", line(&head));
-        let _ = writeln!(
-            o,
-            "{}",
-            w.iter()
-                .map(|n| "-".repeat(*n))
-                .collect::<Vec<_>>()
-                .join("  ")
-        );
-        for r in &rows {
-            let _ = writeln!(o, "{}", line(r));
-        }
+        o.push_str(&crate::report::table(&head, &rows));
         let proved = self
             .outcomes
             .iter()

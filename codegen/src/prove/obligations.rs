@@ -151,16 +151,7 @@ pub fn obligations(plan: &Plan) -> Vec<Obligation> {
             .flat_map(|s| cone.post.get(s).into_iter().flatten().copied())
             .collect()
     };
-    let want_step: Vec<String> = prog
-        .signals
-        .iter()
-        .enumerate()
-        .filter_map(|(i, s)| match s.kind {
-            SigKind::Input => Some(smt::input_var(prog, SigId(i))),
-            SigKind::State => Some(smt::pre_var(prog, SigId(i))),
-            _ => None,
-        })
-        .collect();
+    let want_step = step_vars(plan);
 
     // (a) overflow, one per value.
     for (i, v) in plan.vals.iter().enumerate() {
@@ -373,6 +364,20 @@ fn conj(terms: &[String]) -> String {
         [t] => t.clone(),
         _ => format!("(and {})", terms.join(" ")),
     }
+}
+
+/// The SMT variables of one step: every input and pre-step state.
+fn step_vars(plan: &Plan) -> Vec<String> {
+    let prog = &plan.prog;
+    prog.signals
+        .iter()
+        .enumerate()
+        .filter_map(|(i, s)| match s.kind {
+            SigKind::Input => Some(smt::input_var(prog, SigId(i))),
+            SigKind::State => Some(smt::pre_var(prog, SigId(i))),
+            _ => None,
+        })
+        .collect()
 }
 
 /// Cone of influence: the values each value, and each post-step signal, depends on.
@@ -724,19 +729,9 @@ pub fn operands(op: &Op) -> Vec<ValId> {
 /// The whole-program overflow obligation of one value (used when a local query is refuted,
 /// to get a counterexample that is a program state).
 pub fn global_for(plan: &Plan, id: ValId) -> Obligation {
-    let prog = &plan.prog;
     let enc = encode_step(plan);
     let paths = path_conditions(plan);
-    let want: Vec<String> = prog
-        .signals
-        .iter()
-        .enumerate()
-        .filter_map(|(i, s)| match s.kind {
-            SigKind::Input => Some(smt::input_var(prog, SigId(i))),
-            SigKind::State => Some(smt::pre_var(prog, SigId(i))),
-            _ => None,
-        })
-        .collect();
+    let want = step_vars(plan);
     let v = plan.val(id);
     Obligation {
         name: format!(

@@ -54,6 +54,18 @@ pub fn signed_bits(lo: i128, hi: i128) -> u32 {
     need(lo).max(need(hi)).max(1)
 }
 
+/// A signed comparison of two terms of one width.
+pub fn signed_cmp(op: CmpOp, x: &str, y: &str) -> String {
+    match op {
+        CmpOp::Lt => format!("(bvslt {x} {y})"),
+        CmpOp::Le => format!("(bvsle {x} {y})"),
+        CmpOp::Gt => format!("(bvsgt {x} {y})"),
+        CmpOp::Ge => format!("(bvsge {x} {y})"),
+        CmpOp::Eq => format!("(= {x} {y})"),
+        CmpOp::Ne => format!("(not (= {x} {y}))"),
+    }
+}
+
 /// `lo ≤ t ≤ hi` for a signed `width`-bit term.
 pub fn in_range(t: &str, width: u32, lo: i128, hi: i128) -> String {
     format!(
@@ -200,17 +212,7 @@ fn op_term(plan: &Plan, id: ValId, env: &BTreeMap<SigId, String>) -> String {
         Op::Min(a, b) => format!("(ite (bvslt {a} {b}) {a} {b})", a = n(a), b = n(b)),
         Op::Max(a, b) => format!("(ite (bvslt {a} {b}) {b} {a})", a = n(a), b = n(b)),
         Op::Select(c, a, b) => format!("(ite {} {} {})", n(c), n(a), n(b)),
-        Op::Cmp(op, a, b) => {
-            let (a, b) = (n(a), n(b));
-            match op {
-                CmpOp::Lt => format!("(bvslt {a} {b})"),
-                CmpOp::Le => format!("(bvsle {a} {b})"),
-                CmpOp::Gt => format!("(bvsgt {a} {b})"),
-                CmpOp::Ge => format!("(bvsge {a} {b})"),
-                CmpOp::Eq => format!("(= {a} {b})"),
-                CmpOp::Ne => format!("(not (= {a} {b}))"),
-            }
-        }
+        Op::Cmp(op, a, b) => signed_cmp(*op, &n(a), &n(b)),
         Op::And(a, b) => format!("(and {} {})", n(a), n(b)),
         Op::Or(a, b) => format!("(or {} {})", n(a), n(b)),
         Op::Not(a) => format!("(not {})", n(a)),
@@ -434,14 +436,7 @@ impl PropEnv<'_> {
                 let f = a.frac.max(b.frac);
                 let w = (a.width + (f - a.frac) as u32).max(b.width + (f - b.frac) as u32);
                 let (x, y) = (a.to(w, f), b.to(w, f));
-                match op {
-                    CmpOp::Lt => format!("(bvslt {x} {y})"),
-                    CmpOp::Le => format!("(bvsle {x} {y})"),
-                    CmpOp::Gt => format!("(bvsgt {x} {y})"),
-                    CmpOp::Ge => format!("(bvsge {x} {y})"),
-                    CmpOp::Eq => format!("(= {x} {y})"),
-                    CmpOp::Ne => format!("(not (= {x} {y}))"),
-                }
+                signed_cmp(*op, &x, &y)
             }
             PCond::And(a, b) => format!("(and {} {})", self.cond(a)?, self.cond(b)?),
             PCond::Or(a, b) => format!("(or {} {})", self.cond(a)?, self.cond(b)?),
