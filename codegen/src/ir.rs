@@ -263,6 +263,42 @@ pub enum PExpr {
     Max(Box<PExpr>, Box<PExpr>),
 }
 
+impl PExpr {
+    /// Visits this expression and every subexpression, parents first.
+    pub fn walk(&self, f: &mut dyn FnMut(&PExpr)) {
+        f(self);
+        match self {
+            PExpr::Neg(a) | PExpr::Abs(a) => a.walk(f),
+            PExpr::Add(a, b)
+            | PExpr::Sub(a, b)
+            | PExpr::Mul(a, b)
+            | PExpr::Min(a, b)
+            | PExpr::Max(a, b) => {
+                a.walk(f);
+                b.walk(f);
+            }
+            PExpr::Const(_) | PExpr::Sig(..) | PExpr::Param(_) => {}
+        }
+    }
+}
+
+impl PCond {
+    /// Visits every expression in the condition and all their subexpressions.
+    pub fn walk(&self, f: &mut dyn FnMut(&PExpr)) {
+        match self {
+            PCond::Cmp(_, a, b) => {
+                a.walk(f);
+                b.walk(f);
+            }
+            PCond::And(a, b) | PCond::Or(a, b) => {
+                a.walk(f);
+                b.walk(f);
+            }
+            PCond::Not(a) => a.walk(f),
+        }
+    }
+}
+
 /// A condition in a property.
 #[derive(Clone, Debug)]
 pub enum PCond {

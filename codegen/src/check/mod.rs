@@ -648,16 +648,10 @@ impl Checker {
                             Box::new(self.cond(&b.right)?),
                         ))
                     }
-                    BinOp::Lt(_) => CmpOp::Lt,
-                    BinOp::Le(_) => CmpOp::Le,
-                    BinOp::Gt(_) => CmpOp::Gt,
-                    BinOp::Ge(_) => CmpOp::Ge,
-                    BinOp::Eq(_) => CmpOp::Eq,
-                    BinOp::Ne(_) => CmpOp::Ne,
-                    _ => {
-                        return Err(Diag::new(b.span(), "expected a comparison")
-                            .help("conditions compare numbers with < <= > >= == != and join them with && || !"))
-                    }
+                    other => cmp_op(&other).ok_or_else(|| {
+                        Diag::new(b.span(), "expected a comparison")
+                            .help("conditions compare numbers with < <= > >= == != and join them with && || !")
+                    })?,
                 };
                 Ok(Cond::Cmp(op, self.expr(&b.left)?, self.expr(&b.right)?))
             }
@@ -666,6 +660,19 @@ impl Checker {
             )),
         }
     }
+}
+
+/// The comparison a binary operator denotes, if any.
+pub(crate) fn cmp_op(op: &BinOp) -> Option<CmpOp> {
+    Some(match op {
+        BinOp::Lt(_) => CmpOp::Lt,
+        BinOp::Le(_) => CmpOp::Le,
+        BinOp::Gt(_) => CmpOp::Gt,
+        BinOp::Ge(_) => CmpOp::Ge,
+        BinOp::Eq(_) => CmpOp::Eq,
+        BinOp::Ne(_) => CmpOp::Ne,
+        _ => return None,
+    })
 }
 
 fn zero() -> Box<Expr> {

@@ -122,13 +122,7 @@ impl Checker {
                             Box::new(self.pcond(&b.right, ctx)?),
                         ))
                     }
-                    BinOp::Lt(_) => CmpOp::Lt,
-                    BinOp::Le(_) => CmpOp::Le,
-                    BinOp::Gt(_) => CmpOp::Gt,
-                    BinOp::Ge(_) => CmpOp::Ge,
-                    BinOp::Eq(_) => CmpOp::Eq,
-                    BinOp::Ne(_) => CmpOp::Ne,
-                    _ => return Err(not_a_condition(e)),
+                    other => super::cmp_op(&other).ok_or_else(|| not_a_condition(e))?,
                 };
                 Ok(PCond::Cmp(
                     op,

@@ -223,7 +223,6 @@ struct Lowered {
     body: Vec<LStmt>,
     env: HashMap<SigId, Abs>,
     locals: HashMap<SigId, ValId>,
-    inputs: HashMap<SigId, ValId>,
     seen: HashMap<SigId, (f64, f64)>,
     mults: Vec<MulNote>,
 }
@@ -272,7 +271,6 @@ impl Lowered {
                 }
             })
             .collect();
-        let _ = &self.inputs;
         Plan {
             prog: self.prog,
             target: self.target,
@@ -344,7 +342,6 @@ impl<'a> Lowerer<'a> {
             body,
             env: self.env,
             locals: self.locals,
-            inputs: self.inputs,
             seen: self.seen,
             mults: self.mults,
         })

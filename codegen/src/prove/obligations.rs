@@ -431,40 +431,18 @@ fn cone(plan: &Plan) -> Cone {
     Cone { val, post }
 }
 
-/// Post-step signals a property condition reads.
-fn post_signals(c: &crate::ir::PCond, out: &mut BTreeSet<SigId>, pre_as_post: bool) {
-    use crate::ir::{PCond, PExpr, When};
-    fn e(x: &PExpr, out: &mut BTreeSet<SigId>, pre_as_post: bool) {
-        match x {
-            PExpr::Sig(id, When::Post) => {
-                out.insert(*id);
-            }
-            PExpr::Sig(id, When::Pre) if pre_as_post => {
-                out.insert(*id);
-            }
-            PExpr::Neg(a) | PExpr::Abs(a) => e(a, out, pre_as_post),
-            PExpr::Add(a, b)
-            | PExpr::Sub(a, b)
-            | PExpr::Mul(a, b)
-            | PExpr::Min(a, b)
-            | PExpr::Max(a, b) => {
-                e(a, out, pre_as_post);
-                e(b, out, pre_as_post);
-            }
-            _ => {}
+/// Post-step signals a property condition reads (and pre-step states, if `pre_as_post`).
+fn post_signals(c: &PCond, out: &mut BTreeSet<SigId>, pre_as_post: bool) {
+    use crate::ir::{PExpr, When};
+    c.walk(&mut |x| match x {
+        PExpr::Sig(id, When::Post) => {
+            out.insert(*id);
         }
-    }
-    match c {
-        PCond::Cmp(_, a, b) => {
-            e(a, out, pre_as_post);
-            e(b, out, pre_as_post);
+        PExpr::Sig(id, When::Pre) if pre_as_post => {
+            out.insert(*id);
         }
-        PCond::And(a, b) | PCond::Or(a, b) => {
-            post_signals(a, out, pre_as_post);
-            post_signals(b, out, pre_as_post);
-        }
-        PCond::Not(a) => post_signals(a, out, pre_as_post),
-    }
+        _ => {}
+    });
 }
 
 /// The path condition (conjunction of enclosing branch conditions) of every value.
@@ -819,7 +797,7 @@ fn exact_query(
                 let (dlo, dhi) = (g.lo - (shi << shift), g.hi - (slo << shift));
                 let d = Rc::new(T::Var(
                     format!("d_{}", g.var),
-                    exact_width(dlo, dhi),
+                    signed_bits(dlo, dhi),
                     true,
                     dlo,
                     dhi,
@@ -958,52 +936,22 @@ fn direct_property_query(
     Some(q)
 }
 
-fn exact_width(lo: i128, hi: i128) -> u32 {
-    signed_bits(lo, hi)
-}
-
 /// Free parameters that a property compares with a pre-step state (`p - s` or `s - p`).
 fn param_state_pairs(plan: &Plan, assumes: &[PCond], ensures: &[PCond]) -> BTreeMap<usize, SigId> {
     use crate::ir::{PExpr, When};
-    fn e(x: &PExpr, plan: &Plan, out: &mut BTreeMap<usize, SigId>) {
-        match x {
-            PExpr::Sub(a, b) => {
-                match (&**a, &**b) {
-                    (PExpr::Param(i), PExpr::Sig(s, When::Pre))
-                    | (PExpr::Sig(s, When::Pre), PExpr::Param(i))
-                        if plan.prog.sig(*s).kind == SigKind::State =>
-                    {
+    let mut out = BTreeMap::new();
+    for c in assumes.iter().chain(ensures) {
+        c.walk(&mut |x| {
+            if let PExpr::Sub(a, b) = x {
+                if let (PExpr::Param(i), PExpr::Sig(s, When::Pre))
+                | (PExpr::Sig(s, When::Pre), PExpr::Param(i)) = (&**a, &**b)
+                {
+                    if plan.prog.sig(*s).kind == SigKind::State {
                         out.entry(*i).or_insert(*s);
                     }
-                    _ => {}
                 }
-                e(a, plan, out);
-                e(b, plan, out);
             }
-            PExpr::Neg(a) | PExpr::Abs(a) => e(a, plan, out),
-            PExpr::Add(a, b) | PExpr::Mul(a, b) | PExpr::Min(a, b) | PExpr::Max(a, b) => {
-                e(a, plan, out);
-                e(b, plan, out);
-            }
-            _ => {}
-        }
-    }
-    fn c(x: &PCond, plan: &Plan, out: &mut BTreeMap<usize, SigId>) {
-        match x {
-            PCond::Cmp(_, a, b) => {
-                e(a, plan, out);
-                e(b, plan, out);
-            }
-            PCond::And(a, b) | PCond::Or(a, b) => {
-                c(a, plan, out);
-                c(b, plan, out);
-            }
-            PCond::Not(a) => c(a, plan, out),
-        }
-    }
-    let mut out = BTreeMap::new();
-    for x in assumes.iter().chain(ensures) {
-        c(x, plan, &mut out);
+        });
     }
     out
 }

@@ -14,7 +14,6 @@
 use crate::ir::{CmpOp, PCond, PExpr, Program, SigId, SigKind, When};
 use crate::lower::lir::{LStmt, Op, Val, ValId};
 use crate::lower::Plan;
-use crate::qformat::IntTy;
 use std::collections::BTreeMap;
 use std::fmt::Write;
 
@@ -443,16 +442,6 @@ impl PropEnv<'_> {
             PCond::Not(a) => format!("(not {})", self.cond(a)?),
         })
     }
-}
-
-/// The signed type holding `[lo, hi]` as an SMT width, for declaring free parameters.
-pub fn width_for(lo: i128, hi: i128) -> u32 {
-    signed_bits(lo, hi)
-}
-
-/// Whether a storage type is signed (for declaring `in_*`/`pre_*` premises).
-pub fn is_signed(t: IntTy) -> bool {
-    t.signed
 }
 
 #[cfg(test)]
