@@ -167,3 +167,21 @@ fn demo_writes_check_and_code() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn vacuous_property_is_not_called_proved() {
+    let o = qloop(&["prove", &fixture("vacuous.qloop"), "--no-cache"]);
+    let out = text(&o.stdout);
+    assert_eq!(o.status.code(), Some(1), "{out}{}", text(&o.stderr));
+    assert!(
+        out.contains("UNKNOWN: property slows_down_when_far_overloaded"),
+        "{out}"
+    );
+    assert!(out.contains("vacuous"), "{out}");
+    // The satisfiable one next to it is proved.
+    assert!(
+        !out.contains("UNKNOWN: property slows_down_when_overloaded"),
+        "{out}"
+    );
+    assert!(out.contains("1 unknown"), "{out}");
+}

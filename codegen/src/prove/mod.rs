@@ -91,7 +91,7 @@ pub fn prove_filtered(
         .into_iter()
         .filter(|o| only.is_none_or(|t| o.name.contains(t)))
         .collect();
-    let queries: Vec<Query> = obs.iter().map(|o| o.query.clone()).collect();
+    let mut queries: Vec<Query> = obs.iter().map(|o| o.query.clone()).collect();
     // The encodings of one property form a group: the first proof cancels the others.
     let groups: Vec<usize> = obs
         .iter()
@@ -102,7 +102,25 @@ pub fn prove_filtered(
                 .unwrap_or(i)
         })
         .collect();
-    let runs = solver::run_all_grouped(&queries, &groups, cfg, progress);
+    // One witness query per property under test (own group): its premises must be
+    // satisfiable, or the property holds vacuously.
+    let mut groups = groups;
+    let mut witnessed: Vec<usize> = Vec::new();
+    for (k, w) in obligations::witness_queries(plan).into_iter().enumerate() {
+        let tested = obs.iter().any(|o| o.goal == Goal::Property(k));
+        if let (true, Some(w)) = (tested, w) {
+            witnessed.push(k);
+            groups.push(queries.len());
+            queries.push(w);
+        }
+    }
+    // A counterexample that replays settles its group: the other encodings stop.
+    let mut confirm = |i: usize, run: &Run| {
+        obs.get(i)
+            .is_some_and(|o| judge(plan, o.clone(), vec![run.clone()]).verdict == Verdict::Refuted)
+    };
+    let mut runs = solver::run_all_grouped(&queries, &groups, cfg, progress, &mut confirm);
+    let witness_runs = runs.split_off(obs.len());
     let mut outcomes: Vec<Outcome> = obs
         .into_iter()
         .zip(runs)
@@ -124,9 +142,28 @@ pub fn prove_filtered(
             }
         }
     }
+    let mut outcomes = merge_portfolio(outcomes);
+    for (k, runs) in witnessed.into_iter().zip(witness_runs) {
+        if !runs.iter().any(|r| r.answer == Answer::Unsat) {
+            continue;
+        }
+        for o in outcomes
+            .iter_mut()
+            .filter(|o| o.ob.goal == Goal::Property(k))
+        {
+            if o.verdict == Verdict::Proved {
+                o.verdict = Verdict::Unknown;
+                o.note = Some(
+                    "vacuous: no state in the ranges and invariants, input in range and \
+parameter value meets the `assume`s, so the property says nothing; check its assumptions"
+                        .into(),
+                );
+            }
+        }
+    }
     Report {
         spec: plan.prog.name.clone(),
-        outcomes: merge_portfolio(outcomes),
+        outcomes,
         wall_ms: start.elapsed().as_millis() as u64,
     }
 }
@@ -137,64 +174,79 @@ fn portfolio(o: &Obligation) -> bool {
     o.ob_is_portfolio()
 }
 
-/// A property is tried in two encodings (exact terms, bit-precise); merges them into one
-/// outcome: refuted if either replays a counterexample, else proved if either is proved.
-/// Each solver's answer is its best over the encodings.
+/// The encoding named in a portfolio obligation's name (`property P [encoding]`).
+fn encoding_of(o: &Obligation) -> Option<(usize, &str)> {
+    let i = o.name.find(" [").filter(|_| portfolio(o))?;
+    Some((i, o.name[i + 2..].trim_end_matches(']')))
+}
+
+/// Merges the encodings of one question into one outcome: refuted if any replays a
+/// counterexample, else proved if any is proved. Each solver's answer is its best over the
+/// encodings, and the note says which encoding each solver proved it in.
 fn merge_portfolio(outcomes: Vec<Outcome>) -> Vec<Outcome> {
+    let rank = |v: Verdict| match v {
+        Verdict::Refuted => 2,
+        Verdict::Proved => 1,
+        Verdict::Unknown => 0,
+    };
+    // A proof outranks a (possibly spurious) model of an over-approximation.
+    let answer_rank = |x: &Answer| match x {
+        Answer::Unsat => 4,
+        Answer::Sat(_) => 3,
+        Answer::Timeout => 2,
+        Answer::Cancelled => 1,
+        Answer::Error(_) => 0,
+    };
     let mut out: Vec<Outcome> = Vec::new();
-    for o in outcomes {
-        let same = out
-            .iter_mut()
-            .find(|x| portfolio(&o.ob) && x.ob.goal == o.ob.goal && x.ob.kind == o.ob.kind);
-        let Some(prev) = same else {
-            let mut o = o;
-            if let (true, Some(i)) = (portfolio(&o.ob), o.ob.name.find(" [")) {
-                let how = o.ob.name[i + 2..].trim_end_matches(']').to_string();
-                o.ob.name.truncate(i);
-                if o.verdict == Verdict::Proved {
-                    o.note = Some(format!("proved in the {how} encoding"));
-                }
-            }
+    // Per merged outcome: (solver, encoding) of each solver's first proof.
+    let mut provers: Vec<Vec<(Solver, String)>> = Vec::new();
+    for mut o in outcomes {
+        let Some((cut, how)) = encoding_of(&o.ob).map(|(i, h)| (i, h.to_string())) else {
             out.push(o);
+            provers.push(Vec::new());
             continue;
         };
-        let how =
-            o.ob.name
-                .rsplit(" [")
-                .next()
-                .unwrap_or("")
-                .trim_end_matches(']')
-                .to_string();
-        let rank = |v: Verdict| match v {
-            Verdict::Refuted => 2,
-            Verdict::Proved => 1,
-            Verdict::Unknown => 0,
+        o.ob.name.truncate(cut);
+        let proofs: Vec<(Solver, String)> = o
+            .runs
+            .iter()
+            .filter(|r| r.answer == Answer::Unsat)
+            .map(|r| (r.solver, how.clone()))
+            .collect();
+        let same = out.iter().position(|x| {
+            x.ob.goal == o.ob.goal && x.ob.kind == o.ob.kind && x.ob.name == o.ob.name
+        });
+        let Some(k) = same else {
+            out.push(o);
+            provers.push(proofs);
+            continue;
         };
+        for (solver, how) in proofs {
+            if !provers[k].iter().any(|(s, _)| *s == solver) {
+                provers[k].push((solver, how));
+            }
+        }
+        let prev = &mut out[k];
         if rank(o.verdict) > rank(prev.verdict) {
             prev.verdict = o.verdict;
             prev.cex = o.cex.clone();
-            prev.note = match o.verdict {
-                Verdict::Proved => Some(format!("proved in the {how} encoding")),
-                _ => o.note.clone(),
-            };
+            prev.note = o.note.clone();
         }
         for r in o.runs {
-            let better = |a: &Answer, b: &Answer| {
-                // A proof outranks a (possibly spurious) model of an over-approximation.
-                let k = |x: &Answer| match x {
-                    Answer::Unsat => 4,
-                    Answer::Sat(_) => 3,
-                    Answer::Timeout => 2,
-                    Answer::Cancelled => 1,
-                    Answer::Error(_) => 0,
-                };
-                k(a) > k(b)
-            };
             match prev.runs.iter_mut().find(|p| p.solver == r.solver) {
-                Some(p) if better(&r.answer, &p.answer) => *p = r,
+                Some(p) if answer_rank(&r.answer) > answer_rank(&p.answer) => *p = r,
                 Some(_) => {}
                 None => prev.runs.push(r),
             }
+        }
+    }
+    for (o, proofs) in out.iter_mut().zip(provers) {
+        if o.verdict == Verdict::Proved && !proofs.is_empty() {
+            let each: Vec<String> = proofs
+                .iter()
+                .map(|(s, how)| format!("{} in the {how} encoding", s.name()))
+                .collect();
+            o.note = Some(format!("proved by {}", each.join(", ")));
         }
     }
     out
@@ -322,7 +374,11 @@ impl Report {
         let both = self
             .outcomes
             .iter()
-            .filter(|x| x.runs.len() > 1 && x.runs.iter().all(|r| r.answer == Answer::Unsat))
+            .filter(|x| {
+                x.verdict == Verdict::Proved
+                    && x.runs.len() > 1
+                    && x.runs.iter().all(|r| r.answer == Answer::Unsat)
+            })
             .count();
         let _ = writeln!(
             o,
@@ -357,7 +413,7 @@ impl Report {
             o,
             "\nOverflow obligations assume only the state ranges and invariants; with the initial and \
 inductive obligations they hold for every reachable state, by induction over one step, for unbounded time. \
-Inputs are arbitrary bits (step clamps them), except in properties, which assume inputs in range."
+Inputs are arbitrary bits (step clamps them), except in properties, which assume inputs in range. The obligations lean on each other: whole-program queries take other values' intervals as lemmas, and the integer encodings of properties and invariants rely on no value wrapping, so the spec is proved only when every obligation is. Over-approximate encodings (abstracted products, linear envelopes) can only yield spurious counterexamples, and the replay rejects those."
         );
         o
     }

@@ -110,6 +110,43 @@ pub struct ParamGrid {
     pub hi: i128,
 }
 
+/// One encoding of an exact-term query: sort and product treatment.
+#[derive(Clone, Copy, Debug)]
+pub struct Encoding {
+    /// Bit-vectors or integers.
+    pub sort: exact::Sort,
+    /// Exact or over-approximated products.
+    pub products: exact::Products,
+    /// Name in reports (`property P [label]`).
+    pub label: &'static str,
+}
+
+/// Linear integer arithmetic, products replaced by their linear envelopes: decided in
+/// milliseconds by both solvers when the envelope is tight enough for the property.
+pub const LINEAR: Encoding = Encoding {
+    sort: exact::Sort::Int,
+    products: exact::Products::Relaxed,
+    label: "linear envelope",
+};
+/// Non-linear integer arithmetic, exact (cvc5's incremental linearisation is fast on it).
+pub const INTEGER: Encoding = Encoding {
+    sort: exact::Sort::Int,
+    products: exact::Products::Exact,
+    label: "exact integers",
+};
+/// Exact terms as bit-vectors at the narrowest widths.
+pub const EXACT_BV: Encoding = Encoding {
+    sort: exact::Sort::BitVec,
+    products: exact::Products::Exact,
+    label: "exact terms",
+};
+/// Bit-vectors, products outside the free parameters bounded by their intervals.
+pub const ABSTRACT_BV: Encoding = Encoding {
+    sort: exact::Sort::BitVec,
+    products: exact::Products::Interval,
+    label: "abstracted products",
+};
+
 /// The grid of property `p`'s free parameters.
 pub fn param_grids(plan: &Plan, p: usize) -> Vec<ParamGrid> {
     let finest = plan
@@ -208,27 +245,19 @@ pub fn obligations(plan: &Plan) -> Vec<Obligation> {
     }
     for (k, inv) in prog.invariants.iter().enumerate() {
         let line = inv.span.start().line;
-        let init = exact_query(
-            plan,
-            Side::Initial,
-            &[],
-            &[],
-            &|pt| pt.cond(&inv.cond),
-            0..0,
-            &[],
-            false,
-        );
-        let step = exact_query(
-            plan,
-            Side::Step,
-            &[],
-            &[],
-            &|pt| pt.cond(&inv.cond),
-            0..0,
-            &[],
-            false,
-        );
-        if let (Some(init), Some(step)) = (init, step) {
+        let query = |side: Side, how: Encoding| {
+            exact_query(
+                plan,
+                side,
+                &[],
+                &[],
+                &|pt| pt.cond(&inv.cond),
+                0..0,
+                &[],
+                how,
+            )
+        };
+        if let Some(init) = query(Side::Initial, EXACT_BV) {
             out.push(Obligation {
                 name: format!("invariant {} holds initially", inv.name),
                 kind: Kind::Initial,
@@ -236,33 +265,37 @@ pub fn obligations(plan: &Plan) -> Vec<Obligation> {
                 goal: Goal::Invariant(k),
                 line,
             });
-            out.push(Obligation {
-                name: format!("invariant {} is inductive [exact terms]", inv.name),
-                kind: Kind::Inductive,
-                query: step,
-                goal: Goal::Invariant(k),
-                line,
-            });
-            // The bit-precise encoding too: products of post-states distribute badly.
-            let none: Vec<(String, u32, i32)> = Vec::new();
-            let post_env = PropEnv {
-                plan,
-                post: &enc.post,
-                params: &none,
-                pre_as_post: true,
-            };
-            if let Some(goal) = post_env.cond(&inv.cond) {
-                let mut sigs = BTreeSet::new();
-                post_signals(&inv.cond, &mut sigs, true);
-                let needed = post_cone(&sigs);
+        }
+        for how in [LINEAR, INTEGER, EXACT_BV] {
+            if let Some(query) = query(Side::Step, how) {
                 out.push(Obligation {
-                    name: format!("invariant {} is inductive [bit-precise]", inv.name),
+                    name: format!("invariant {} is inductive [{}]", inv.name, how.label),
                     kind: Kind::Inductive,
-                    query: step_query(plan, &enc, &paths, &needed, &[], &goal, &want_step, false),
+                    query,
                     goal: Goal::Invariant(k),
                     line,
                 });
             }
+        }
+        // The bit-precise encoding too: products of post-states distribute badly.
+        let none: Vec<(String, u32, i32)> = Vec::new();
+        let post_env = PropEnv {
+            plan,
+            post: &enc.post,
+            params: &none,
+            pre_as_post: true,
+        };
+        if let Some(goal) = post_env.cond(&inv.cond) {
+            let mut sigs = BTreeSet::new();
+            post_signals(&inv.cond, &mut sigs, true);
+            let needed = post_cone(&sigs);
+            out.push(Obligation {
+                name: format!("invariant {} is inductive [bit-precise]", inv.name),
+                kind: Kind::Inductive,
+                query: step_query(plan, &enc, &paths, &needed, &[], &goal, &want_step, false),
+                goal: Goal::Invariant(k),
+                line,
+            });
         }
     }
 
@@ -273,8 +306,8 @@ pub fn obligations(plan: &Plan) -> Vec<Obligation> {
             let parts: Option<Vec<Rc<B>>> = p.ensures.iter().map(|c| pt.cond(c)).collect();
             parts?.into_iter().reduce(|x, y| Rc::new(B::And(x, y)))
         };
-        let exact = |abstracted: bool| {
-            exact_query(
+        let exact = |how: Encoding| {
+            let query = exact_query(
                 plan,
                 Side::Property,
                 &p.assumes,
@@ -282,14 +315,18 @@ pub fn obligations(plan: &Plan) -> Vec<Obligation> {
                 &goal,
                 0..grids.len(),
                 &grids,
-                abstracted,
-            )
+                how,
+            );
+            (query, how.label)
         };
-        let direct = direct_property_query(plan, &enc, &paths, &post_cone, k, &grids, &want_step);
+        let direct = direct_property_query(plan, &enc, &paths, &post_cone, k, &want_step, false);
         let line = p.span.start().line;
+        // Cheapest first: each solver stops at its first proof.
         for (query, how) in [
-            (exact(false), "exact terms"),
-            (exact(true), "abstracted products"),
+            exact(LINEAR),
+            exact(INTEGER),
+            exact(EXACT_BV),
+            exact(ABSTRACT_BV),
             (direct, "bit-precise"),
         ] {
             if let Some(query) = query {
@@ -304,6 +341,24 @@ pub fn obligations(plan: &Plan) -> Vec<Obligation> {
         }
     }
     out
+}
+
+/// One bit-precise query per property whose models are states, inputs and parameters that
+/// meet the property's premises (state ranges, invariants, input ranges, `assume`s): `unsat`
+/// means the property holds vacuously.
+pub fn witness_queries(plan: &Plan) -> Vec<Option<Query>> {
+    let enc = encode_step(plan);
+    let paths = path_conditions(plan);
+    let cone = cone(plan);
+    let post_cone = |sigs: &BTreeSet<SigId>| -> BTreeSet<ValId> {
+        sigs.iter()
+            .flat_map(|s| cone.post.get(s).into_iter().flatten().copied())
+            .collect()
+    };
+    let want_step = step_vars(plan);
+    (0..plan.prog.properties.len())
+        .map(|k| direct_property_query(plan, &enc, &paths, &post_cone, k, &want_step, true))
+        .collect()
 }
 
 /// Whether interval arithmetic on the operands' intervals alone yields a subset of the value's
@@ -750,7 +805,7 @@ fn exact_query(
     goal: &dyn Fn(&PropTerms) -> Option<Rc<B>>,
     params: std::ops::Range<usize>,
     grids: &[ParamGrid],
-    abstract_products: bool,
+    how: Encoding,
 ) -> Option<Query> {
     let prog = &plan.prog;
     let ranges = |id: SigId| -> (i128, i128) {
@@ -768,12 +823,10 @@ fn exact_query(
         }
     };
     let terms = exact::terms(plan, &ranges);
-    let mut em = exact::Emitter::default();
-    // Over-approximation: each product not involving a free parameter becomes a fresh
-    // variable bounded by its interval (shared wherever the same product occurs). Sound:
-    // more behaviours, not fewer; a counterexample it finds may be spurious, and the replay
-    // says so.
-    em.abstract_products = abstract_products;
+    // Over-approximations (products as fresh variables bounded by their interval, or by
+    // their linear envelope) are sound: more behaviours, not fewer; a counterexample they
+    // find may be spurious, and the replay says so.
+    let mut em = exact::Emitter::new(how.sort, how.products);
     em.keep = grids
         .iter()
         .flat_map(|g| [g.var.clone(), format!("d_{}", g.var)])
@@ -804,14 +857,7 @@ fn exact_query(
                 ));
                 let t = exact::add_terms(exact::shl_term(terms.pre[&s].clone(), shift as u32), d);
                 // Keep p in the model (for replay): p = s·2^shift + D, inside p's grid range.
-                let (pn, pw) = em.term(&pv);
-                let (tn, tw) = em.term(&t);
-                let w = pw.max(tw);
-                premises.push(format!(
-                    "(= {} {})",
-                    resize(&pn, pw, w, true),
-                    resize(&tn, tw, w, true)
-                ));
+                premises.push(em.equal(&pv, &t));
                 params_t.push((t, g.frac));
             }
             _ => params_t.push((pv, g.frac)),
@@ -840,8 +886,7 @@ fn exact_query(
     let vars: Vec<Rc<T>> = vars.iter().flat_map(exact::vars_of).collect();
     for v in &vars {
         if let T::Var(_, _, _, lo, hi) = &**v {
-            let (n, w) = em.term(v);
-            premises.push(in_range(&n, w, *lo, *hi));
+            premises.push(em.in_range(v, *lo, *hi));
         }
     }
     if side != Side::Initial {
@@ -858,7 +903,7 @@ fn exact_query(
     };
     let goal = em.boolean(&g);
     premises.append(&mut em.premises);
-    let mut text = String::from("(set-logic QF_BV)\n");
+    let mut text = format!("(set-logic {})\n", em.logic());
     text.push_str(&em.declarations());
     text.push_str(&em.text);
     for p in &premises {
@@ -880,10 +925,11 @@ fn direct_property_query(
     paths: &BTreeMap<ValId, String>,
     post_cone: &dyn Fn(&BTreeSet<SigId>) -> BTreeSet<ValId>,
     k: usize,
-    grids: &[ParamGrid],
     want_step: &[String],
+    witness: bool,
 ) -> Option<Query> {
     let p = &plan.prog.properties[k];
+    let grids = &param_grids(plan, k);
     let params: Vec<(String, u32, i32)> = grids
         .iter()
         .map(|g| (g.var.clone(), g.width, g.frac))
@@ -918,16 +964,13 @@ fn direct_property_query(
     for g in grids {
         let _ = writeln!(decls, "(declare-fun {} () (_ BitVec {}))", g.var, g.width);
     }
-    let mut q = step_query(
-        plan,
-        enc,
-        paths,
-        &needed,
-        &premises,
-        &conj(&ensures),
-        &want,
-        true,
-    );
+    // A witness query asks only for a pre-state, input and parameters meeting the premises.
+    let goal = if witness {
+        "false".to_string()
+    } else {
+        conj(&ensures)
+    };
+    let mut q = step_query(plan, enc, paths, &needed, &premises, &goal, &want, true);
     q.script = q.script.replacen(
         "(set-logic QF_BV)\n",
         &format!("(set-logic QF_BV)\n{decls}"),

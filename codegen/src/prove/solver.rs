@@ -120,8 +120,8 @@ pub enum Answer {
     /// bit-vector read as an UNSIGNED integer (u128) together with its width in bits.
     /// Entries follow [`Query::want`], names exactly as given there.
     Sat(Vec<(String, u128, u32)>),
-    /// Stopped early because another query of the same group (another encoding of the same
-    /// obligation) was proved first.
+    /// Stopped early because the same solver proved another query of the same group
+    /// (another encoding of the same obligation) first.
     Cancelled,
     /// No answer within the timeout (the process was killed; or the solver's own time limit,
     /// set a little later as a backstop, stopped it first).
@@ -188,26 +188,36 @@ pub fn run_all(
     progress: &mut dyn FnMut(usize, usize),
 ) -> Vec<Vec<Run>> {
     let groups: Vec<usize> = (0..queries.len()).collect();
-    run_all_grouped(queries, &groups, cfg, progress)
+    run_all_grouped(queries, &groups, cfg, progress, &mut |_, _| false)
 }
 
 /// Like [`run_all`], where `groups[i]` names the group of query `i`: queries of one group
-/// are alternative encodings of one obligation. Once any of them is proved (`unsat`), the
-/// group's other runs are cancelled ([`Answer::Cancelled`]). Groups of one query run every
-/// solver to the end.
+/// are alternative encodings of one obligation. Once a solver proves one of them (`unsat`),
+/// that solver's runs on the group's other queries are cancelled ([`Answer::Cancelled`]);
+/// the other solvers go on. Groups of one query run every solver to the end.
+///
+/// `confirm(i, run)` is called (on the calling thread) for each `sat` answer to query `i`;
+/// when it returns true (the counterexample replays: the obligation is refuted) every other
+/// run of the group is cancelled, for every solver.
 pub fn run_all_grouped(
     queries: &[Query],
     groups: &[usize],
     cfg: &Config,
     progress: &mut dyn FnMut(usize, usize),
+    confirm: &mut dyn FnMut(usize, &Run) -> bool,
 ) -> Vec<Vec<Run>> {
     let ngroups = groups.iter().copied().max().map_or(0, |g| g + 1);
     let mut sizes = vec![0usize; ngroups];
     for g in groups {
         sizes[*g] += 1;
     }
-    let proved: Vec<AtomicBool> = (0..ngroups).map(|_| AtomicBool::new(false)).collect();
     let solvers = &cfg.solvers;
+    // One flag per (group, solver): a solver that has proved one encoding of a group stops
+    // working on the others, while the other solver goes on to its own proof (the report
+    // aims for both solvers on every obligation).
+    let proved: Vec<AtomicBool> = (0..ngroups * solvers.len())
+        .map(|_| AtomicBool::new(false))
+        .collect();
     let per_query = solvers.len();
     let total = queries.len() * per_query;
     let mut slots: Vec<Vec<Option<Run>>> = vec![vec![None; per_query]; queries.len()];
@@ -225,12 +235,13 @@ pub fn run_all_grouped(
                 return None;
             }
             // Solver-major order: every query's first solver, then the second: the encodings
-            // of one obligation run side by side, and the first proof cancels the rest.
+            // of one obligation run side by side, and a solver's first proof cancels its
+            // runs on the rest.
             let nq = queries.len();
             let (qi, si) = (t % nq, t / nq);
             let g = groups.get(qi).copied().unwrap_or(0);
             let shared = sizes.get(g).copied().unwrap_or(1) > 1;
-            let flag = proved.get(g).filter(|_| shared);
+            let flag = proved.get(g * per_query + si).filter(|_| shared);
             if flag.is_some_and(|f| f.load(Ordering::Relaxed)) {
                 let run = Run {
                     solver: solvers[si],
@@ -279,6 +290,12 @@ pub fn run_all_grouped(
 
             let mut done = 0;
             let mut record = |(qi, si, run): (usize, usize, Run)| {
+                if matches!(run.answer, Answer::Sat(_)) && confirm(qi, &run) {
+                    let g = groups.get(qi).copied().unwrap_or(0);
+                    for f in proved.iter().skip(g * per_query).take(per_query) {
+                        f.store(true, Ordering::Relaxed);
+                    }
+                }
                 slots[qi][si] = Some(run);
                 done += 1;
                 progress(done, total);
@@ -859,7 +876,8 @@ fn parse_values(response: &Sexp, want: &[String]) -> Result<Vec<(String, u128, u
         .collect()
 }
 
-/// Reads a bit-vector literal `#b0101`, `#x00ff` or `(_ bv123 16)` as (unsigned value, width).
+/// Reads a bit-vector literal `#b0101`, `#x00ff` or `(_ bv123 16)` as (unsigned value, width),
+/// or an integer `123` / `(- 123)` as its two's complement with width 128.
 fn parse_bv_literal(sexp: &Sexp) -> Result<(u128, u32), String> {
     let too_wide = |w: usize| format!("{w}-bit value is wider than 128 bits");
     match sexp {
@@ -891,6 +909,9 @@ fn parse_bv_literal(sexp: &Sexp) -> Result<(u128, u32), String> {
         Sexp::List(items) => {
             let atoms: Option<Vec<&str>> = items.iter().map(Sexp::atom).collect();
             let (value, width) = match atoms.as_deref() {
+                Some(["-", digits]) if digits.bytes().all(|b| b.is_ascii_digit()) => {
+                    return int_value(digits, true);
+                }
                 Some(["_", bv, width]) => match bv.strip_prefix("bv") {
                     Some(value) => (value, *width),
                     None => return Err("unexpected indexed term (not `(_ bvN W)`)".to_string()),
@@ -914,8 +935,20 @@ fn parse_bv_literal(sexp: &Sexp) -> Result<(u128, u32), String> {
             }
             Ok((value, width))
         }
+        Sexp::Atom(lit) if !lit.is_empty() && lit.bytes().all(|b| b.is_ascii_digit()) => {
+            int_value(lit, false)
+        }
         _ => Err("not a bit-vector literal".to_string()),
     }
+}
+
+/// An integer model value `123` or `(- 123)` (integer encodings), as its 128-bit two's
+/// complement with width 128.
+fn int_value(digits: &str, negative: bool) -> Result<(u128, u32), String> {
+    let v: i128 = digits
+        .parse()
+        .map_err(|_| format!("integer `{digits}` does not fit in 128 bits"))?;
+    Ok(((if negative { -v } else { v }) as u128, 128))
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1481,7 +1514,13 @@ mod tests {
             jobs: 1,
         };
         let start = Instant::now();
-        let runs = run_all_grouped(&[easy, hard], &[0, 0], &cfg, &mut |_, _| {});
+        let runs = run_all_grouped(
+            &[easy, hard.clone()],
+            &[0, 0],
+            &cfg,
+            &mut |_, _| {},
+            &mut |_, _| false,
+        );
         assert_eq!(runs[0][0].answer, Answer::Unsat);
         assert_eq!(runs[1][0].answer, Answer::Cancelled);
         assert!(
@@ -1489,6 +1528,31 @@ mod tests {
             "{:?}",
             start.elapsed()
         );
+
+        // A confirmed counterexample cancels the group for every solver.
+        let refutable = Query {
+            script: "(set-logic QF_BV)\n(declare-fun x () (_ BitVec 8))\n(assert (= x #x05))\n"
+                .into(),
+            want: vec!["x".into()],
+        };
+        let mut confirmed = Vec::new();
+        let runs = run_all_grouped(
+            &[refutable, hard],
+            &[0, 0],
+            &Config {
+                solvers: vec![Solver::Z3, Solver::Cvc5],
+                ..cfg
+            },
+            &mut |_, _| {},
+            &mut |i, run| {
+                confirmed.push((i, run.solver));
+                true
+            },
+        );
+        assert_eq!(runs[0][0].answer, Answer::Sat(vec![("x".into(), 5, 8)]));
+        assert!(confirmed.contains(&(0, Solver::Z3)), "{confirmed:?}");
+        assert_eq!(runs[1][0].answer, Answer::Cancelled);
+        assert_eq!(runs[1][1].answer, Answer::Cancelled);
     }
 
     #[test]
@@ -1574,6 +1638,11 @@ mod tests {
             (
                 "sat\n((|a b| #b0000000) (x #xffffffffffffffffffffffffffffffff))",
                 vec![("x", u128::MAX, 128), ("|a b|", 0, 7)],
+            ),
+            // Integer encodings: two's complement at width 128.
+            (
+                "sat\n((x 12) (y (- 3)))\n",
+                vec![("x", 12, 128), ("y", (-3i128) as u128, 128)],
             ),
         ];
         for (out, expect) in cases {
