@@ -92,3 +92,46 @@ pub fn kind_name(k: SigKind) -> &'static str {
         SigKind::Local => "let",
     }
 }
+
+/// Signal tables shared by the fixed-point and reference modules, for generic runners:
+/// `INPUTS`, `STATES`, `OUTPUTS` (names, declaration order), their `*_UNITS`, and their
+/// `*_FRAC` (fraction bits of the fixed-point format: raw = value · 2^frac).
+pub fn signal_tables(plan: &Plan) -> TokenStream {
+    let prog = &plan.prog;
+    let table = |kind: SigKind, what: &str| {
+        let ids: Vec<SigId> = prog.ids_of(kind).collect();
+        let n = proc_macro2::Literal::usize_unsuffixed(ids.len());
+        let names = ids.iter().map(|id| prog.sig(*id).name.clone());
+        let units = ids
+            .iter()
+            .map(|id| prog.sig(*id).unit.clone().unwrap_or_default());
+        let fracs = ids
+            .iter()
+            .map(|id| proc_macro2::Literal::i32_unsuffixed(plan.format(*id).frac));
+        let (cn, cu, cf) = (
+            quote::format_ident!("{what}S"),
+            quote::format_ident!("{what}_UNITS"),
+            quote::format_ident!("{what}_FRAC"),
+        );
+        let plural = format!("{}s", kind_name(kind));
+        let (dn, du, df) = (
+            format!(" Names of the {plural}, in declaration order."),
+            format!(" Units of the {plural} (empty if none)."),
+            format!(" Fraction bits of the {plural}' fixed-point formats (raw = value · 2^frac)."),
+        );
+        quote::quote! {
+            #[doc = #dn]
+            pub const #cn: [&str; #n] = [#(#names),*];
+            #[doc = #du]
+            pub const #cu: [&str; #n] = [#(#units),*];
+            #[doc = #df]
+            pub const #cf: [i32; #n] = [#(#fracs),*];
+        }
+    };
+    let (i, s, o) = (
+        table(SigKind::Input, "INPUT"),
+        table(SigKind::State, "STATE"),
+        table(SigKind::Output, "OUTPUT"),
+    );
+    quote::quote! { #i #s #o }
+}

@@ -72,10 +72,32 @@ pub fn module(plan: &Plan) -> TokenStream {
         let n = name(id);
         quote! { #n, }
     });
+    let tables = super::signal_tables(plan);
+    let lit_n = |n: usize| Literal::usize_unsuffixed(n);
+    let (ni, no, ns) = (
+        lit_n(inputs.len()),
+        lit_n(outputs.len()),
+        lit_n(states.len()),
+    );
+    let in_vals = inputs.iter().enumerate().map(|(k, id)| {
+        let k = Literal::usize_unsuffixed(k);
+        let n = name(id);
+        quote! { #n: i[#k], }
+    });
+    let out_vals = outputs.iter().map(|id| {
+        let n = name(id);
+        quote! { o.#n, }
+    });
+    let state_vals = states.iter().map(|id| {
+        let n = name(id);
+        quote! { self.#n, }
+    });
     quote! {
         #[doc = #doc]
         #[allow(#allows)]
         pub mod #modname {
+            #tables
+
             /// Inputs of one step (clamped to their declared ranges on entry).
             #[derive(Clone, Copy, Debug, Default, PartialEq)]
             pub struct Inputs { #(#fi)* }
@@ -105,6 +127,16 @@ pub fn module(plan: &Plan) -> TokenStream {
                 /// Overwrites the states, saturating each to its declared range.
                 pub fn set_states(&mut self, s: States) {
                     #(#setters)*
+                }
+                /// The current states, in the order of [`STATES`].
+                pub fn state_values(&self) -> [f64; #ns] {
+                    [#(#state_vals)*]
+                }
+                /// [`Reference::step`] on arrays, for generic runners: inputs in the order of
+                /// [`INPUTS`], outputs in the order of [`OUTPUTS`].
+                pub fn step_values(&mut self, i: [f64; #ni]) -> [f64; #no] {
+                    let o = self.step(Inputs { #(#in_vals)* });
+                    [#(#out_vals)*]
                 }
                 /// One control period in real arithmetic.
                 pub fn step(&mut self, inputs: Inputs) -> Outputs {

@@ -81,6 +81,33 @@ pub fn module(plan: &Plan) -> TokenStream {
     });
     let allows = super::allowed_lints();
     let period_us = Literal::u64_suffixed((prog.period * 1e6).round() as u64);
+    let tables = super::signal_tables(plan);
+    let lit_n = |n: usize| Literal::usize_unsuffixed(n);
+    let (ni, no, ns) = (
+        lit_n(inputs.len()),
+        lit_n(outputs.len()),
+        lit_n(states.len()),
+    );
+    let in_bits = inputs.iter().enumerate().map(|(k, id)| {
+        let k = Literal::usize_unsuffixed(k);
+        let name = format_ident!("{}", prog.sig(*id).name);
+        let q = plan.format(*id);
+        let (ty, fty) = (int_ty(q.ty), fixed_ty(q));
+        quote! {
+            #name: <#fty>::from_bits(::core::cmp::max(
+                ::core::cmp::min(i[#k], #ty::MAX as i64),
+                #ty::MIN as i64,
+            ) as #ty),
+        }
+    });
+    let out_bits = outputs.iter().map(|id| {
+        let name = format_ident!("{}", prog.sig(*id).name);
+        quote! { o.#name.to_bits() as i64, }
+    });
+    let state_bits = states.iter().map(|id| {
+        let name = format_ident!("{}", prog.sig(*id).name);
+        quote! { self.#name as i64, }
+    });
 
     quote! {
         #[doc = #doc]
@@ -97,6 +124,8 @@ pub fn module(plan: &Plan) -> TokenStream {
             /// A snapshot of the controller's states.
             #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
             pub struct States { #(#st_fields)* }
+
+            #tables
 
             /// The controller: its states as raw integers.
             #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -125,6 +154,20 @@ pub fn module(plan: &Plan) -> TokenStream {
                 /// Overwrites the states, saturating each to its declared range.
                 pub fn set_states(&mut self, s: States) {
                     #(#setters)*
+                }
+
+                /// The current states as raw integers (`value · 2^frac`), in the order of
+                /// [`STATES`].
+                pub fn state_bits(&self) -> [i64; #ns] {
+                    [#(#state_bits)*]
+                }
+
+                /// [`Controller::step`] on raw integers, for generic runners (simulators, HAL
+                /// glue): inputs in the order of [`INPUTS`], each saturated to its type, and
+                /// outputs in the order of [`OUTPUTS`].
+                pub fn step_bits(&mut self, i: [i64; #ni]) -> [i64; #no] {
+                    let o = self.step(Inputs { #(#in_bits)* });
+                    [#(#out_bits)*]
                 }
 
                 /// One control period: reads the inputs, updates the states, returns the outputs.

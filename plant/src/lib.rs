@@ -1,0 +1,25 @@
+//! Floating-point reference plants for qloop controllers, scenarios as data, and the
+//! closed-loop runner that drives the *compiled* fixed-point controller and its f64
+//! reference side by side.
+//!
+//! * [`turning`]: CNC lathe under ACC (000_b8cbacf29caa8fe2.txt, 002_39e44efc2e4f2eb6.txt).
+//! * [`sensor`]: gain, seeded noise, saturation, ADC quantisation.
+//! * [`scenario`]: piecewise-linear channel schedules, in code or TOML.
+//! * [`runner`]: ZOH, substep integration, both loops in lock step; [`metrics`]: settling,
+//!   overshoot, steady-state error, oscillation verdict and frequency, fixed − f64.
+
+pub mod controller;
+pub mod metrics;
+pub mod plant;
+pub mod runner;
+pub mod scenario;
+pub mod sensor;
+pub mod trace;
+pub mod turning;
+
+pub use controller::{Controller, Named, Signals};
+pub use metrics::{metrics, LoopMetrics, Metrics};
+pub use plant::Plant;
+pub use runner::{run, RunConfig};
+pub use scenario::{Scenario, Schedule};
+pub use trace::Trace;

@@ -1,0 +1,32 @@
+//! The plant side of a closed loop.
+
+use crate::controller::Named;
+use crate::scenario::Scenario;
+use crate::sensor::SensorParams;
+
+/// A continuous-time plant, integrated by the runner at a substep of the controller period.
+/// The controller's command is applied with zero-order hold.
+pub trait Plant: Send {
+    /// Short name (`turning`, ...).
+    fn name(&self) -> &'static str;
+    /// The measured signal (the controller's first input): name and unit.
+    fn measured(&self) -> Named;
+    /// The command (the controller's first output): name and unit.
+    fn command(&self) -> Named;
+    /// The sensor that measures [`Plant::measured`].
+    fn sensor(&self) -> SensorParams;
+    /// The reference the loop should hold at time `t` (for metrics), in the measured unit.
+    fn reference(&self, sc: &Scenario, t: f64) -> f64;
+    /// The controller issues `cmd` at sample time `t`.
+    fn command_at(&mut self, t: f64, cmd: f64);
+    /// Integrates from `t` to `t + h`.
+    fn advance(&mut self, sc: &Scenario, t: f64, h: f64);
+    /// The true value of the measured signal now, in its unit.
+    fn output(&self, sc: &Scenario, t: f64) -> f64;
+    /// Names of the recorded plant columns, with units (`a_mm`, `force_n`, ...).
+    fn columns(&self) -> Vec<&'static str>;
+    /// The recorded plant values now, in the order of [`Plant::columns`].
+    fn record(&self, sc: &Scenario, t: f64, out: &mut Vec<f64>);
+    /// A fresh copy in the initial state.
+    fn fresh(&self) -> Box<dyn Plant>;
+}

@@ -1,0 +1,145 @@
+//! The closed-loop runner: the compiled fixed-point controller and the f64 reference, each in
+//! its own copy of the same plant and scenario (same sensor noise stream), sampled every
+//! controller period, the plant integrated at `substeps` per period with the command held.
+
+use crate::controller::Controller;
+use crate::plant::Plant;
+use crate::scenario::Scenario;
+use crate::sensor::Sensor;
+use crate::trace::Trace;
+
+/// Runner settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RunConfig {
+    /// Plant integration substeps per controller period.
+    pub substeps: usize,
+}
+
+impl Default for RunConfig {
+    fn default() -> Self {
+        RunConfig { substeps: 20 }
+    }
+}
+
+/// Checks that the controller's first input and output match the plant's measured signal
+/// and command in unit.
+pub fn check_binding(plant: &dyn Plant, c: &dyn Controller) -> Result<(), String> {
+    let s = c.signals();
+    let (Some(i), Some(o)) = (s.inputs.first(), s.outputs.first()) else {
+        return Err("the controller needs at least one input (the measurement) and one output (the command)".into());
+    };
+    let (m, cmd) = (plant.measured(), plant.command());
+    if i.1 != m.1 {
+        return Err(format!(
+            "the {} plant measures {} in {}, but the controller's first input `{}` is in `{}`; declare it in {}",
+            plant.name(), m.0, m.1, i.0, i.1, m.1
+        ));
+    }
+    if o.1 != cmd.1 {
+        return Err(format!(
+            "the {} plant takes its {} command in {}, but the controller's first output `{}` is in `{}`; declare it in {}",
+            plant.name(), cmd.0, cmd.1, o.0, o.1, cmd.1
+        ));
+    }
+    Ok(())
+}
+
+/// One loop's state during a run.
+struct Loop {
+    plant: Box<dyn Plant>,
+    sensor: Sensor,
+    ctl: Box<dyn Controller + Send>,
+    x: Vec<f64>,
+    y: Vec<f64>,
+    s: Vec<f64>,
+}
+
+impl Loop {
+    fn new(plant: &dyn Plant, ctl: Box<dyn Controller + Send>, sc: &Scenario) -> Loop {
+        let sig = ctl.signals();
+        let mut sensor_p = plant.sensor();
+        sensor_p.noise_sigma = sc.noise_sigma;
+        Loop {
+            plant: plant.fresh(),
+            sensor: Sensor::new(sensor_p, sc.seed),
+            x: vec![0.0; sig.inputs.len()],
+            y: vec![0.0; sig.outputs.len()],
+            s: vec![0.0; sig.states.len()],
+            ctl,
+        }
+    }
+
+    /// Sample, compute, issue the command.
+    fn sample(&mut self, sc: &Scenario, t: f64) {
+        self.x[0] = self.sensor.read(self.plant.output(sc, t));
+        self.ctl.step(&self.x, &mut self.y);
+        self.ctl.states(&mut self.s);
+        self.plant.command_at(t, self.y[0]);
+    }
+
+    fn record(&self, sc: &Scenario, t: f64, row: &mut Vec<f64>) {
+        self.plant.record(sc, t, row);
+        row.extend(&self.x);
+        row.extend(&self.s);
+        row.extend(&self.y);
+    }
+}
+
+/// Runs `fixed` and `reference` (the same spec) on copies of `plant` through `sc`.
+pub fn run(
+    plant: &dyn Plant,
+    fixed: Box<dyn Controller + Send>,
+    reference: Box<dyn Controller + Send>,
+    sc: &Scenario,
+    cfg: RunConfig,
+) -> Result<Trace, String> {
+    check_binding(plant, fixed.as_ref())?;
+    check_binding(plant, reference.as_ref())?;
+    if fixed.signals() != reference.signals() {
+        return Err("the fixed-point and reference controllers come from different specs".into());
+    }
+    let period = fixed.period();
+    if period.is_nan() || period <= 0.0 {
+        return Err("the controller's period must be positive".into());
+    }
+    let sig = fixed.signals();
+    let mut columns: Vec<String> = vec!["t".into()];
+    let names: Vec<String> = sig
+        .inputs
+        .iter()
+        .chain(&sig.states)
+        .chain(&sig.outputs)
+        .map(|n| n.0.to_string())
+        .collect();
+    let plant_cols: Vec<String> = plant.columns().iter().map(|c| c.to_string()).collect();
+    columns.extend(plant_cols.iter().cloned());
+    columns.extend(names.iter().cloned());
+    columns.extend(plant_cols.iter().map(|c| format!("{c}_ref")));
+    columns.extend(names.iter().map(|c| format!("{c}_ref")));
+
+    let mut loops = [Loop::new(plant, fixed, sc), Loop::new(plant, reference, sc)];
+    let n = (sc.duration_s / period).round() as usize;
+    let substeps = cfg.substeps.max(1);
+    let h = period / substeps as f64;
+    let mut trace = Trace {
+        columns,
+        rows: Vec::with_capacity(n + 1),
+    };
+    for k in 0..=n {
+        let t = k as f64 * period;
+        let mut row = vec![t];
+        for l in loops.iter_mut() {
+            l.sample(sc, t);
+        }
+        for l in &loops {
+            l.record(sc, t, &mut row);
+        }
+        trace.rows.push(row);
+        for j in 0..substeps {
+            for l in loops.iter_mut() {
+                l.plant.advance(sc, t + j as f64 * h, h);
+            }
+        }
+    }
+    Ok(trace)
+}
