@@ -88,6 +88,8 @@ pub struct Turning {
     cmd: f64,
     /// Issued commands not yet applied: (time to apply, value).
     pending: VecDeque<(f64, f64)>,
+    /// `(h, e^{-h/τ})` of the last substep length.
+    decay: (f64, f64),
 }
 
 impl Turning {
@@ -98,6 +100,7 @@ impl Turning {
             v: 0.0,
             cmd: 0.0,
             pending: VecDeque::new(),
+            decay: (0.0, 1.0),
         }
     }
 
@@ -153,8 +156,10 @@ impl Plant for Turning {
             self.pending.pop_front();
         }
         // Exact discretisation of the first-order servo under a held command.
-        let decay = (-h / self.p.tau_servo_s).exp();
-        self.v = self.cmd + (self.v - self.cmd) * decay;
+        if self.decay.0 != h {
+            self.decay = (h, (-h / self.p.tau_servo_s).exp());
+        }
+        self.v = self.cmd + (self.v - self.cmd) * self.decay.1;
     }
     fn output(&self, sc: &Scenario, t: f64) -> f64 {
         self.force_kn(sc, t)
