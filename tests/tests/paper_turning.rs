@@ -4,51 +4,39 @@
 
 use qloop_plant::turning::{scenario_named, Turning, TurningParams};
 use qloop_plant::{
-    fixed_controller, metrics, reference_controller, run, Metrics, RunConfig, Trace,
+    fixed_controller, metrics, reference_controller, run, Controller, Metrics, RunConfig, Trace,
 };
 
-fn variable_gain(sc: &str) -> (Trace, Metrics) {
+/// Runs a seed controller (compiled fixed-point and f64 reference) on the turning plant.
+fn turning(
+    sc: &str,
+    fixed: Box<dyn Controller + Send>,
+    reference: Box<dyn Controller + Send>,
+    signals: &[&str],
+) -> (Trace, Metrics) {
     let sc = scenario_named(sc).expect("scenario");
     let plant = Turning::new(TurningParams::default());
-    let trace = run(
-        &plant,
-        fixed_controller!(qloop_verified::koren_masory_1981),
-        reference_controller!(qloop_verified::koren_masory_1981_ref, 0.1),
-        &sc,
-        RunConfig::default(),
-    )
-    .expect("run");
-    let m = metrics(
-        &trace,
-        "fc",
-        1.5,
-        &sc.breakpoints(),
-        sc.duration_s,
-        &["km", "kc", "u", "feed"],
-    );
+    let trace = run(&plant, fixed, reference, &sc, RunConfig::default()).expect("run");
+    let m = metrics(&trace, "fc", 1.5, &sc.breakpoints(), sc.duration_s, signals);
     (trace, m)
 }
 
+fn variable_gain(sc: &str) -> (Trace, Metrics) {
+    turning(
+        sc,
+        fixed_controller!(qloop_verified::koren_masory_1981),
+        reference_controller!(qloop_verified::koren_masory_1981_ref, 0.1),
+        &["km", "kc", "u", "feed"],
+    )
+}
+
 fn conventional(sc: &str) -> (Trace, Metrics) {
-    let sc = scenario_named(sc).expect("scenario");
-    let plant = Turning::new(TurningParams::default());
-    let trace = run(
-        &plant,
+    turning(
+        sc,
         fixed_controller!(qloop_verified::acc_fixed_gain),
         reference_controller!(qloop_verified::acc_fixed_gain_ref, 0.1),
-        &sc,
-        RunConfig::default(),
-    )
-    .expect("run");
-    let m = metrics(
-        &trace,
-        "fc",
-        1.5,
-        &sc.breakpoints(),
-        sc.duration_s,
         &["u", "vf"],
-    );
-    (trace, m)
+    )
 }
 
 /// Mean of column `c` over `[t0, t1)`.

@@ -183,11 +183,7 @@ pub fn obligations(plan: &Plan) -> Vec<Obligation> {
     let enc = encode_step(plan);
     let paths = path_conditions(plan);
     let cone = cone(plan);
-    let post_cone = |sigs: &BTreeSet<SigId>| -> BTreeSet<ValId> {
-        sigs.iter()
-            .flat_map(|s| cone.post.get(s).into_iter().flatten().copied())
-            .collect()
-    };
+    let post_cone = |sigs: &BTreeSet<SigId>| cone.post_of(sigs);
     let want_step = step_vars(plan);
 
     // (a) overflow, one per value.
@@ -350,11 +346,7 @@ pub fn witness_queries(plan: &Plan) -> Vec<Option<Query>> {
     let enc = encode_step(plan);
     let paths = path_conditions(plan);
     let cone = cone(plan);
-    let post_cone = |sigs: &BTreeSet<SigId>| -> BTreeSet<ValId> {
-        sigs.iter()
-            .flat_map(|s| cone.post.get(s).into_iter().flatten().copied())
-            .collect()
-    };
+    let post_cone = |sigs: &BTreeSet<SigId>| cone.post_of(sigs);
     let want_step = step_vars(plan);
     (0..plan.prog.properties.len())
         .map(|k| direct_property_query(plan, &enc, &paths, &post_cone, k, &want_step, true))
@@ -439,6 +431,15 @@ fn step_vars(plan: &Plan) -> Vec<String> {
 struct Cone {
     val: Vec<BTreeSet<ValId>>,
     post: BTreeMap<SigId, BTreeSet<ValId>>,
+}
+
+impl Cone {
+    /// The values the post-step values of `sigs` depend on.
+    fn post_of(&self, sigs: &BTreeSet<SigId>) -> BTreeSet<ValId> {
+        sigs.iter()
+            .flat_map(|s| self.post.get(s).into_iter().flatten().copied())
+            .collect()
+    }
 }
 
 fn cone(plan: &Plan) -> Cone {
