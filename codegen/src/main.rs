@@ -286,7 +286,7 @@ fn write_smt(plan: &Plan, dir: &Path) -> Result<(), Fail> {
     {
         let text = format!(
             "; qloop obligation {i}: {} ({})\n(set-option :produce-models true)\n{}(check-sat)\n",
-            ob.name,
+            ob.label(),
             ob.kind.name(),
             ob.query.script
         );

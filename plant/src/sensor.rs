@@ -22,33 +22,35 @@ pub struct SensorParams {
 /// A sensor with its own seeded noise stream.
 #[derive(Clone, Debug)]
 pub struct Sensor {
-    /// Parameters.
-    pub p: SensorParams,
+    p: SensorParams,
     rng: ChaCha8Rng,
+    noise: Option<Normal<f64>>,
+    /// ADC step and highest code.
+    lsb: f64,
+    top: f64,
 }
 
 impl Sensor {
     /// A sensor whose noise is drawn from a ChaCha8 stream seeded with `seed`.
     pub fn new(p: SensorParams, seed: u64) -> Sensor {
+        let levels = 2f64.powi(p.bits as i32);
         Sensor {
-            p,
+            noise: Normal::new(0.0, p.noise_sigma)
+                .ok()
+                .filter(|_| p.noise_sigma > 0.0),
+            lsb: (p.range.1 - p.range.0) / levels,
+            top: levels - 1.0,
             rng: ChaCha8Rng::seed_from_u64(seed),
+            p,
         }
     }
 
     /// One reading of the true value `x`.
     pub fn read(&mut self, x: f64) -> f64 {
-        let noise = match Normal::new(0.0, self.p.noise_sigma) {
-            Ok(n) if self.p.noise_sigma > 0.0 => n.sample(&mut self.rng),
-            _ => 0.0,
-        };
+        let noise = self.noise.map_or(0.0, |n| n.sample(&mut self.rng));
         let (lo, hi) = self.p.range;
         let v = (self.p.gain * x + noise).clamp(lo, hi);
-        let lsb = (hi - lo) / 2f64.powi(self.p.bits as i32);
-        lo + ((v - lo) / lsb)
-            .round()
-            .min(2f64.powi(self.p.bits as i32) - 1.0)
-            * lsb
+        lo + ((v - lo) / self.lsb).round().min(self.top) * self.lsb
     }
 }
 

@@ -14,7 +14,7 @@
 //! is `z² − (1+a)z + a + u·K(1−a)`, stable iff `u·K < 1`: the limit on the paper's
 //! `K = K_c·K_m` (which uses the secant gain `K_m ≈ F_c/U`) is `1/u`. With u = 0.74
 //! (tool-maker force tables; the figure) that is **K = 1.35 1/s, against the
-//! paper's 1.33**, and the loop oscillates at the limit at `arccos((1+a)/2)/(2πT)` = 1.6 Hz
+//! paper's 1.33**, and the loop oscillates at the limit at `arccos((1+a)/2)/(2πT)` = 1.66 Hz
 //! for τ = 20 ms (paper: "approximately 2 Hz"). Without the delay the limit would be
 //! `2(1+a)/((1−a)u)` ≥ 2.7, far above the paper's; with the chip thickness averaged over one
 //! spindle revolution instead, the limit would depend on speed in a way the paper does not

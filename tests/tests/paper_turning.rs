@@ -2,7 +2,7 @@
 //! controllers of `qloop-verified` and their f64 references (000_b8cbacf29caa8fe2.txt,
 //! Figs. 5-7 and the text on them).
 
-use qloop_plant::turning::{scenario_named, Turning, TurningParams};
+use qloop_plant::turning::{scenario_named, scenarios, Turning, TurningParams};
 use qloop_plant::{
     fixed_controller, metrics, reference_controller, run, Controller, Metrics, RunConfig, Trace,
 };
@@ -37,6 +37,11 @@ fn conventional(sc: &str) -> (Trace, Metrics) {
         reference_controller!(qloop_verified::acc_fixed_gain_ref, 0.1),
         &["u", "vf"],
     )
+}
+
+/// Every turning scenario.
+fn scenario_names() -> Vec<String> {
+    scenarios().into_iter().map(|s| s.name).collect()
 }
 
 /// Mean of column `c` over `[t0, t1)`.
@@ -119,14 +124,8 @@ fn variable_gain_stays_stable_where_the_conventional_does_not() {
         let (_, conv) = conventional(sc);
         assert!(!conv.fixed.stable(), "{sc}: conventional should oscillate");
     }
-    for sc in [
-        "depth-steps",
-        "depth-ramp",
-        "speed-drop",
-        "air-gap",
-        "noise",
-    ] {
-        let (_, vg) = variable_gain(sc);
+    for sc in scenario_names() {
+        let (_, vg) = variable_gain(&sc);
         assert!(
             vg.fixed.stable(),
             "{sc}: {:?}",
@@ -161,17 +160,11 @@ fn fixed_point_tracks_the_f64_reference_within_the_derived_bound() {
     let rho = [
         ("km", 253.0 / 256.0),
         ("kc", 15.0 / 16.0),
-        ("u", (0.74f64 * 1.25).sqrt()),
+        ("u", (TurningParams::default().u * 1.25).sqrt()),
     ];
     let bounds = step_bounds("koren_masory_1981");
-    for sc in [
-        "depth-steps",
-        "depth-ramp",
-        "speed-drop",
-        "air-gap",
-        "noise",
-    ] {
-        let (tr, _) = variable_gain(sc);
+    for sc in scenario_names() {
+        let (tr, _) = variable_gain(&sc);
         for (name, r) in rho {
             let e = bounds.iter().find(|(n, _)| n == name).expect("state").1;
             let bound = e / (1.0 - r);

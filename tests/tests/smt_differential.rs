@@ -9,6 +9,7 @@
 use qloop::interp::{step_fixed, step_fixed_trace};
 use qloop::ir::{SigId, SigKind};
 use qloop::prove::exact::{self, Sort};
+use qloop::prove::replay::twos_complement;
 use qloop::prove::smt::{encode_step, input_var, lit, pre_var, vname};
 use qloop::prove::solver::{run_all, Answer, Config, Query, Solver};
 use qloop::Plan;
@@ -52,6 +53,26 @@ fn cases(p: &Plan, n_random: usize) -> Vec<Vec<i128>> {
     out
 }
 
+/// Each query's model (the values of its `want` variables) from `solver`.
+fn evaluate(queries: &[Query], solver: Solver, stem: &str) -> Vec<Vec<(String, u128, u32)>> {
+    let cfg = Config {
+        solvers: vec![solver],
+        timeout_ms: 30_000,
+        cache_dir: None,
+        jobs: 2,
+    };
+    run_all(queries, &cfg, &mut |_, _| {})
+        .into_iter()
+        .map(|run| match &run[0].answer {
+            Answer::Sat(model) => model.clone(),
+            other => panic!(
+                "{stem}: {} did not evaluate the encoding: {other:?}",
+                solver.name()
+            ),
+        })
+        .collect()
+}
+
 fn differential(stem: &str) {
     assert!(Solver::Z3.available(), "z3 must be installed");
     let p = plan(stem);
@@ -81,30 +102,16 @@ fn differential(stem: &str) {
             }
         })
         .collect();
-    let cfg = Config {
-        solvers: vec![Solver::Z3],
-        timeout_ms: 30_000,
-        cache_dir: None,
-        jobs: 2,
-    };
-    let runs = run_all(&queries, &cfg, &mut |_, _| {});
-    for (case, run) in cases.iter().zip(runs) {
-        let Answer::Sat(model) = &run[0].answer else {
-            panic!(
-                "{stem}: z3 did not evaluate the encoding: {:?}",
-                run[0].answer
-            );
-        };
+    for (case, model) in cases.iter().zip(evaluate(&queries, Solver::Z3, stem)) {
         let mut vars = case.clone();
         let trace =
             step_fixed_trace(&p, &mut vars).expect("in-range states never violate the analysis");
         let mut compared = 0;
-        for (name, bits, width) in model {
+        for (name, bits, width) in &model {
             let i: usize = name[1..].parse().unwrap();
             let Some(want) = trace[i] else { continue }; // branch not taken
-            let ty = p.vals[i].ty;
-            let got = if ty.signed && (bits >> (width - 1)) & 1 == 1 {
-                *bits as i128 - (1i128 << width)
+            let got = if p.vals[i].ty.signed {
+                twos_complement(*bits, *width)
             } else {
                 *bits as i128
             };
@@ -184,10 +191,7 @@ fn exact_differential(stem: &str, sort: Sort, solver: Solver) {
             let mut defs = String::new();
             for id in &outs {
                 let (name, w) = em.term(&terms.post[id]);
-                let ty = match sort {
-                    Sort::BitVec => format!("(_ BitVec {w})"),
-                    Sort::Int => "Int".into(),
-                };
+                let ty = em.sort_name(w);
                 let _ = writeln!(
                     defs,
                     "(define-fun post_{} () {ty} {name})",
@@ -213,25 +217,11 @@ fn exact_differential(stem: &str, sort: Sort, solver: Solver) {
             }
         })
         .collect();
-    let cfg = Config {
-        solvers: vec![solver],
-        timeout_ms: 30_000,
-        cache_dir: None,
-        jobs: 2,
-    };
-    let runs = run_all(&queries, &cfg, &mut |_, _| {});
-    for (case, run) in cases.iter().zip(runs) {
-        let Answer::Sat(model) = &run[0].answer else {
-            panic!("{stem}: no evaluation: {:?}", run[0].answer);
-        };
+    for (case, model) in cases.iter().zip(evaluate(&queries, solver, stem)) {
         let mut vars = case.clone();
         step_fixed(&p, &mut vars).expect("in-range states never violate the analysis");
-        for (id, (name, bits, width)) in outs.iter().zip(model) {
-            let got = if *width < 128 && (bits >> (width - 1)) & 1 == 1 {
-                *bits as i128 - (1i128 << width)
-            } else {
-                *bits as i128
-            };
+        for (id, (name, bits, width)) in outs.iter().zip(&model) {
+            let got = twos_complement(*bits, *width);
             assert_eq!(got, vars[id.0], "{stem} {sort:?}: {name} on case {case:?}");
         }
     }

@@ -73,12 +73,7 @@ pub fn module(plan: &Plan) -> TokenStream {
         quote! { #n, }
     });
     let tables = super::signal_tables(plan);
-    let lit_n = |n: usize| Literal::usize_unsuffixed(n);
-    let (ni, no, ns) = (
-        lit_n(inputs.len()),
-        lit_n(outputs.len()),
-        lit_n(states.len()),
-    );
+    let [ni, no, ns] = [&inputs, &outputs, &states].map(|v| Literal::usize_unsuffixed(v.len()));
     let in_vals = inputs.iter().enumerate().map(|(k, id)| {
         let k = Literal::usize_unsuffixed(k);
         let n = name(id);

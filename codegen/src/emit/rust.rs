@@ -82,12 +82,7 @@ pub fn module(plan: &Plan) -> TokenStream {
     let allows = super::allowed_lints();
     let period_us = Literal::u64_suffixed((prog.period * 1e6).round() as u64);
     let tables = super::signal_tables(plan);
-    let lit_n = |n: usize| Literal::usize_unsuffixed(n);
-    let (ni, no, ns) = (
-        lit_n(inputs.len()),
-        lit_n(outputs.len()),
-        lit_n(states.len()),
-    );
+    let [ni, no, ns] = [&inputs, &outputs, &states].map(|v| Literal::usize_unsuffixed(v.len()));
     let in_bits = inputs.iter().enumerate().map(|(k, id)| {
         let k = Literal::usize_unsuffixed(k);
         let name = format_ident!("{}", prog.sig(*id).name);

@@ -588,6 +588,14 @@ impl Emitter {
         }
     }
 
+    /// The SMT sort of a term `width` bits wide (bit-vectors) or of any integer.
+    pub fn sort_name(&self, width: u32) -> String {
+        match self.sort {
+            Sort::BitVec => format!("(_ BitVec {width})"),
+            Sort::Int => "Int".to_string(),
+        }
+    }
+
     /// An integer literal in the emitter's sort, `width` bits wide for bit-vectors.
     fn num(&self, v: i128, width: u32) -> String {
         match self.sort {
@@ -637,10 +645,7 @@ impl Emitter {
         };
         let out = match &**t {
             T::Var(name, w, signed, _, _) => {
-                let decl = match self.sort {
-                    Sort::BitVec => format!("(declare-fun {name} () (_ BitVec {w}))\n"),
-                    Sort::Int => format!("(declare-fun {name} () Int)\n"),
-                };
+                let decl = format!("(declare-fun {name} () {})\n", self.sort_name(*w));
                 self.declared.entry(name.clone()).or_insert(decl);
                 match self.sort {
                     Sort::Int => (name.clone(), 0),
@@ -651,10 +656,7 @@ impl Emitter {
             T::Const(c) => (self.num(*c, own), own),
             T::Mul(a, b) if abstracted => {
                 let name = format!("q{}", self.names.len() + self.bnames.len());
-                let decl = match self.sort {
-                    Sort::BitVec => format!("(declare-fun {name} () (_ BitVec {own}))\n"),
-                    Sort::Int => format!("(declare-fun {name} () Int)\n"),
-                };
+                let decl = format!("(declare-fun {name} () {})\n", self.sort_name(own));
                 self.declared.insert(name.clone(), decl);
                 let range = self.name_in_range(&name, own, lo, hi);
                 self.premises.push(range);
@@ -666,10 +668,7 @@ impl Emitter {
             _ => {
                 let (body, w) = self.body(t, own);
                 let name = format!("e{}", self.names.len() + self.bnames.len());
-                let sort = match self.sort {
-                    Sort::BitVec => format!("(_ BitVec {w})"),
-                    Sort::Int => "Int".to_string(),
-                };
+                let sort = self.sort_name(w);
                 let _ = writeln!(self.text, "(define-fun {name} () {sort} {body})");
                 (name, w)
             }

@@ -87,26 +87,23 @@ pub fn prove_filtered(
     progress: &mut dyn FnMut(usize, usize),
 ) -> Report {
     let start = Instant::now();
-    let obs: Vec<Obligation> = obligations::obligations(plan)
+    let (all, witnesses) = obligations::with_witnesses(plan);
+    let obs: Vec<Obligation> = all
         .into_iter()
-        .filter(|o| only.is_none_or(|t| o.name.contains(t)))
+        .filter(|o| only.is_none_or(|t| o.label().contains(t)))
         .collect();
     let mut queries: Vec<Query> = obs.iter().map(|o| o.query.clone()).collect();
-    // The encodings of one property form a group: the first proof cancels the others.
-    let groups: Vec<usize> = obs
+    // The encodings of one question form a group: a solver's first proof cancels its runs on
+    // the others.
+    let mut groups: Vec<usize> = obs
         .iter()
         .enumerate()
-        .map(|(i, o)| {
-            obs.iter()
-                .position(|x| portfolio(x) && portfolio(o) && x.goal == o.goal && x.kind == o.kind)
-                .unwrap_or(i)
-        })
+        .map(|(i, o)| obs.iter().position(|x| alternatives(x, o)).unwrap_or(i))
         .collect();
     // One witness query per property under test (own group): its premises must be
     // satisfiable, or the property holds vacuously.
-    let mut groups = groups;
     let mut witnessed: Vec<usize> = Vec::new();
-    for (k, w) in obligations::witness_queries(plan).into_iter().enumerate() {
+    for (k, w) in witnesses.into_iter().enumerate() {
         let tested = obs.iter().any(|o| o.goal == Goal::Property(k));
         if let (true, Some(w)) = (tested, w) {
             witnessed.push(k);
@@ -168,16 +165,9 @@ parameter value meets the `assume`s, so the property says nothing; check its ass
     }
 }
 
-/// Whether an obligation is one encoding among several of the same question (its name ends
-/// in `[encoding]`).
-fn portfolio(o: &Obligation) -> bool {
-    o.ob_is_portfolio()
-}
-
-/// The encoding named in a portfolio obligation's name (`property P [encoding]`).
-fn encoding_of(o: &Obligation) -> Option<(usize, &str)> {
-    let i = o.name.find(" [").filter(|_| portfolio(o))?;
-    Some((i, o.name[i + 2..].trim_end_matches(']')))
+/// Whether `a` and `b` are two encodings of one question.
+fn alternatives(a: &Obligation, b: &Obligation) -> bool {
+    a.encoding.is_some() && b.encoding.is_some() && a.goal == b.goal && a.kind == b.kind
 }
 
 /// Merges the encodings of one question into one outcome: refuted if any replays a
@@ -199,23 +189,20 @@ fn merge_portfolio(outcomes: Vec<Outcome>) -> Vec<Outcome> {
     };
     let mut out: Vec<Outcome> = Vec::new();
     // Per merged outcome: (solver, encoding) of each solver's first proof.
-    let mut provers: Vec<Vec<(Solver, String)>> = Vec::new();
-    for mut o in outcomes {
-        let Some((cut, how)) = encoding_of(&o.ob).map(|(i, h)| (i, h.to_string())) else {
+    let mut provers: Vec<Vec<(Solver, &str)>> = Vec::new();
+    for o in outcomes {
+        let Some(how) = o.ob.encoding else {
             out.push(o);
             provers.push(Vec::new());
             continue;
         };
-        o.ob.name.truncate(cut);
-        let proofs: Vec<(Solver, String)> = o
+        let proofs: Vec<(Solver, &str)> = o
             .runs
             .iter()
             .filter(|r| r.answer == Answer::Unsat)
-            .map(|r| (r.solver, how.clone()))
+            .map(|r| (r.solver, how))
             .collect();
-        let same = out.iter().position(|x| {
-            x.ob.goal == o.ob.goal && x.ob.kind == o.ob.kind && x.ob.name == o.ob.name
-        });
+        let same = out.iter().position(|x| alternatives(&x.ob, &o.ob));
         let Some(k) = same else {
             out.push(o);
             provers.push(proofs);

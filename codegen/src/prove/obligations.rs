@@ -44,9 +44,12 @@ pub enum Kind {
 }
 
 impl Obligation {
-    /// Whether this is one encoding of several for the same question (name ends in `]`).
-    pub fn ob_is_portfolio(&self) -> bool {
-        self.name.ends_with(']') && self.name.contains(" [")
+    /// The name with its encoding, if any: `property P [linear envelope]`.
+    pub fn label(&self) -> String {
+        match self.encoding {
+            Some(how) => format!("{} [{how}]", self.name),
+            None => self.name.clone(),
+        }
     }
 }
 
@@ -93,6 +96,9 @@ pub struct Obligation {
     pub goal: Goal,
     /// Spec line of the operation or property (0 if unknown).
     pub line: usize,
+    /// The encoding, when the question is tried in several (a portfolio): obligations with
+    /// the same goal and kind and an encoding are alternatives, merged in the report.
+    pub encoding: Option<&'static str>,
 }
 
 /// Free-parameter encoding: the grid a parameter ranges over.
@@ -178,6 +184,13 @@ pub fn param_grids(plan: &Plan, p: usize) -> Vec<ParamGrid> {
 
 /// Builds every obligation of the plan.
 pub fn obligations(plan: &Plan) -> Vec<Obligation> {
+    with_witnesses(plan).0
+}
+
+/// Every obligation of the plan, and per property a bit-precise query whose models are
+/// states, inputs and parameters meeting its premises (state ranges, invariants, input
+/// ranges, `assume`s): `unsat` there means the property holds vacuously.
+pub fn with_witnesses(plan: &Plan) -> (Vec<Obligation>, Vec<Option<Query>>) {
     let prog = &plan.prog;
     let mut out = Vec::new();
     let enc = encode_step(plan);
@@ -216,6 +229,7 @@ pub fn obligations(plan: &Plan) -> Vec<Obligation> {
                 local: !global,
             },
             line: v.line,
+            encoding: None,
         });
     }
 
@@ -228,6 +242,7 @@ pub fn obligations(plan: &Plan) -> Vec<Obligation> {
             query: initial_query(plan, &state_bound(plan, id, &smt::pre_var(prog, id))),
             goal: Goal::StateBound(id),
             line: s.span.start().line,
+            encoding: None,
         });
         let goal = state_bound(plan, id, &enc.post[&id]);
         let needed = post_cone(&BTreeSet::from([id]));
@@ -237,6 +252,7 @@ pub fn obligations(plan: &Plan) -> Vec<Obligation> {
             query: step_query(plan, &enc, &paths, &needed, &[], &goal, &want_step, false),
             goal: Goal::StateBound(id),
             line: s.span.start().line,
+            encoding: None,
         });
     }
     for (k, inv) in prog.invariants.iter().enumerate() {
@@ -260,16 +276,18 @@ pub fn obligations(plan: &Plan) -> Vec<Obligation> {
                 query: init,
                 goal: Goal::Invariant(k),
                 line,
+                encoding: None,
             });
         }
         for how in [LINEAR, INTEGER, EXACT_BV] {
             if let Some(query) = query(Side::Step, how) {
                 out.push(Obligation {
-                    name: format!("invariant {} is inductive [{}]", inv.name, how.label),
+                    name: format!("invariant {} is inductive", inv.name),
                     kind: Kind::Inductive,
                     query,
                     goal: Goal::Invariant(k),
                     line,
+                    encoding: Some(how.label),
                 });
             }
         }
@@ -286,11 +304,12 @@ pub fn obligations(plan: &Plan) -> Vec<Obligation> {
             post_signals(&inv.cond, &mut sigs, true);
             let needed = post_cone(&sigs);
             out.push(Obligation {
-                name: format!("invariant {} is inductive [bit-precise]", inv.name),
+                name: format!("invariant {} is inductive", inv.name),
                 kind: Kind::Inductive,
                 query: step_query(plan, &enc, &paths, &needed, &[], &goal, &want_step, false),
                 goal: Goal::Invariant(k),
                 line,
+                encoding: Some("bit-precise"),
             });
         }
     }
@@ -327,30 +346,20 @@ pub fn obligations(plan: &Plan) -> Vec<Obligation> {
         ] {
             if let Some(query) = query {
                 out.push(Obligation {
-                    name: format!("property {} [{how}]", p.name),
+                    name: format!("property {}", p.name),
                     kind: Kind::Property,
                     query,
                     goal: Goal::Property(k),
                     line,
+                    encoding: Some(how),
                 });
             }
         }
     }
-    out
-}
-
-/// One bit-precise query per property whose models are states, inputs and parameters that
-/// meet the property's premises (state ranges, invariants, input ranges, `assume`s): `unsat`
-/// means the property holds vacuously.
-pub fn witness_queries(plan: &Plan) -> Vec<Option<Query>> {
-    let enc = encode_step(plan);
-    let paths = path_conditions(plan);
-    let cone = cone(plan);
-    let post_cone = |sigs: &BTreeSet<SigId>| cone.post_of(sigs);
-    let want_step = step_vars(plan);
-    (0..plan.prog.properties.len())
+    let witnesses = (0..prog.properties.len())
         .map(|k| direct_property_query(plan, &enc, &paths, &post_cone, k, &want_step, true))
-        .collect()
+        .collect();
+    (out, witnesses)
 }
 
 /// Whether interval arithmetic on the operands' intervals alone yields a subset of the value's
@@ -781,6 +790,7 @@ pub fn global_for(plan: &Plan, id: ValId) -> Obligation {
             local: false,
         },
         line: v.line,
+        encoding: None,
     }
 }
 

@@ -23,8 +23,8 @@ impl Cex {
         let values = model
             .iter()
             .map(|(n, v, w)| {
-                let raw = if signed(n) && *w < 128 && (v >> (w - 1)) & 1 == 1 {
-                    (*v as i128) - (1i128 << w)
+                let raw = if signed(n) {
+                    twos_complement(*v, *w)
                 } else {
                     *v as i128
                 };
@@ -39,6 +39,16 @@ impl Cex {
             .iter()
             .find(|(n, ..)| n == name)
             .map(|(_, v, _)| *v)
+    }
+}
+
+/// The signed value of a `width`-bit two's-complement pattern (width 128: the pattern as is,
+/// as for integer-sorted model values).
+pub fn twos_complement(bits: u128, width: u32) -> i128 {
+    if width < 128 && (bits >> (width - 1)) & 1 == 1 {
+        bits as i128 - (1i128 << width)
+    } else {
+        bits as i128
     }
 }
 
