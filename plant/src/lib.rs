@@ -9,7 +9,9 @@
 //!   overshoot, steady-state error, oscillation verdict and frequency, fixed − f64.
 
 pub mod controller;
+pub mod grinding;
 pub mod metrics;
+pub mod milling;
 pub mod plant;
 pub mod runner;
 pub mod scenario;
@@ -19,7 +21,7 @@ pub mod turning;
 
 pub use controller::{Controller, Named, Signals};
 pub use metrics::{metrics, LoopMetrics, Metrics};
-pub use plant::Plant;
+pub use plant::{Param, Plant};
 pub use runner::{run, RunConfig};
 pub use scenario::{Scenario, Schedule};
 pub use trace::Trace;

@@ -119,12 +119,13 @@ pub fn segment(t: &[f64], x: &[f64], r: f64, t0: f64, t1: f64) -> Option<Segment
 }
 
 /// Metrics of a trace from [`crate::run`]: `measured` is the controller input that reads the
-/// plant, `reference` its set point, `breakpoints` the scenario's, `signals` the controller
+/// plant, `reference(t)` its set point (taken at each segment's midpoint: reference steps
+/// belong at scenario breakpoints), `breakpoints` the scenario's, `signals` the controller
 /// signals compared fixed vs f64.
 pub fn metrics(
     trace: &Trace,
     measured: &str,
-    reference: f64,
+    reference: &dyn Fn(f64) -> f64,
     breakpoints: &[f64],
     duration: f64,
     signals: &[&str],
@@ -138,7 +139,7 @@ pub fn metrics(
         LoopMetrics {
             segments: edges
                 .windows(2)
-                .filter_map(|w| segment(&t, &x, reference, w[0], w[1]))
+                .filter_map(|w| segment(&t, &x, reference(0.5 * (w[0] + w[1])), w[0], w[1]))
                 .collect(),
         }
     };

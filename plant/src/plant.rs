@@ -29,4 +29,31 @@ pub trait Plant: Send {
     fn record(&self, sc: &Scenario, t: f64, out: &mut Vec<f64>);
     /// A fresh copy in the initial state.
     fn fresh(&self) -> Box<dyn Plant>;
+    /// The parameters a Monte-Carlo sweep may vary, with their nominal values and ranges.
+    fn params(&self) -> Vec<Param>;
+    /// Sets parameter `name` (one of [`Plant::params`]) to `value`.
+    fn set_param(&mut self, name: &str, value: f64) -> Result<(), String>;
+}
+
+/// A plant parameter that a sweep may vary.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Param {
+    /// Name, with its unit as a suffix (`ks`, `tau_servo_s`, ...).
+    pub name: &'static str,
+    /// Current value.
+    pub value: f64,
+    /// The range a sweep draws from (uniformly), and why that range.
+    pub range: (f64, f64),
+    /// Source or reason for the range.
+    pub why: &'static str,
+}
+
+/// The error for an unknown parameter name.
+pub fn unknown_param(plant: &dyn Plant, name: &str) -> String {
+    let known: Vec<&str> = plant.params().iter().map(|p| p.name).collect();
+    format!(
+        "the {} plant has no parameter `{name}`; it has {}",
+        plant.name(),
+        known.join(", ")
+    )
 }

@@ -1,6 +1,10 @@
 //! The closed-loop runner: the compiled fixed-point controller and the f64 reference, each in
 //! its own copy of the same plant and scenario (same sensor noise stream), sampled every
 //! controller period, the plant integrated at `substeps` per period with the command held.
+//!
+//! The controller's first input reads the plant through its sensor; every further input
+//! (a reference, a limit) is read from the scenario channel of the same name, in that
+//! input's unit, so reference changes are scenario data too.
 
 use crate::controller::Controller;
 use crate::plant::Plant;
@@ -44,6 +48,19 @@ pub fn check_binding(plant: &dyn Plant, c: &dyn Controller) -> Result<(), String
     Ok(())
 }
 
+/// Checks that every controller input after the first has a scenario channel to read.
+pub fn check_channels(sc: &Scenario, c: &dyn Controller) -> Result<(), String> {
+    for (name, _) in c.signals().inputs.iter().skip(1) {
+        if !sc.channels.contains_key(*name) {
+            return Err(format!(
+                "the controller input `{name}` is not the plant's measurement; give scenario `{}` a channel `{name}` (its schedule feeds the input)",
+                sc.name
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// One loop's state during a run.
 struct Loop {
     plant: Box<dyn Plant>,
@@ -52,6 +69,8 @@ struct Loop {
     x: Vec<f64>,
     y: Vec<f64>,
     s: Vec<f64>,
+    /// Names of the inputs after the first, read from scenario channels.
+    extra: Vec<&'static str>,
 }
 
 impl Loop {
@@ -65,6 +84,7 @@ impl Loop {
             x: vec![0.0; sig.inputs.len()],
             y: vec![0.0; sig.outputs.len()],
             s: vec![0.0; sig.states.len()],
+            extra: sig.inputs.iter().skip(1).map(|n| n.0).collect(),
             ctl,
         }
     }
@@ -72,6 +92,9 @@ impl Loop {
     /// Sample, compute, issue the command.
     fn sample(&mut self, sc: &Scenario, t: f64) {
         self.x[0] = self.sensor.read(self.plant.output(sc, t));
+        for (x, name) in self.x[1..].iter_mut().zip(&self.extra) {
+            *x = sc.value(name, t, 0.0);
+        }
         self.ctl.step(&self.x, &mut self.y);
         self.ctl.states(&mut self.s);
         self.plant.command_at(t, self.y[0]);
@@ -95,6 +118,7 @@ pub fn run(
 ) -> Result<Trace, String> {
     check_binding(plant, fixed.as_ref())?;
     check_binding(plant, reference.as_ref())?;
+    check_channels(sc, fixed.as_ref())?;
     if fixed.signals() != reference.signals() {
         return Err("the fixed-point and reference controllers come from different specs".into());
     }

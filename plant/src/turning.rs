@@ -21,7 +21,7 @@
 //! report. Both choices are documented as chosen, not taken from the papers.
 
 use crate::controller::Named;
-use crate::plant::Plant;
+use crate::plant::{unknown_param, Param, Plant};
 use crate::scenario::{Scenario, Schedule};
 use crate::sensor::SensorParams;
 use std::collections::{BTreeMap, VecDeque};
@@ -186,6 +186,46 @@ impl Plant for Turning {
     }
     fn fresh(&self) -> Box<dyn Plant> {
         Box::new(Turning::new(self.p.clone()))
+    }
+    fn params(&self) -> Vec<Param> {
+        let p = &self.p;
+        vec![
+            Param {
+                name: "ks",
+                value: p.ks,
+                range: (0.7 * p.ks, 1.3 * p.ks),
+                why: "±30%: specific cutting force across steels and tool wear (002 eq. 5)",
+            },
+            Param {
+                name: "u",
+                value: p.u,
+                range: (0.6, 0.9),
+                why: "force exponent, 0.6 < u < 1 (002 eq. 5), tool-maker tables 0.7-0.85",
+            },
+            Param {
+                name: "tau_servo_s",
+                value: p.tau_servo_s,
+                range: (0.01, 0.04),
+                why: "chosen: CNC velocity loops of 10-40 ms",
+            },
+            Param {
+                name: "sensor_gain",
+                value: p.sensor.gain,
+                range: (0.95, 1.05),
+                why: "chosen: ±5% dynamometer calibration error",
+            },
+        ]
+    }
+    fn set_param(&mut self, name: &str, value: f64) -> Result<(), String> {
+        match name {
+            "ks" => self.p.ks = value,
+            "u" => self.p.u = value,
+            "tau_servo_s" => self.p.tau_servo_s = value,
+            "sensor_gain" => self.p.sensor.gain = value,
+            _ => return Err(unknown_param(self, name)),
+        }
+        *self = Turning::new(self.p.clone());
+        Ok(())
     }
 }
 

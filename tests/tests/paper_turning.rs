@@ -17,7 +17,14 @@ fn turning(
     let sc = scenario_named(sc).expect("scenario");
     let plant = Turning::new(TurningParams::default());
     let trace = run(&plant, fixed, reference, &sc, RunConfig::default()).expect("run");
-    let m = metrics(&trace, "fc", 1.5, &sc.breakpoints(), sc.duration_s, signals);
+    let m = metrics(
+        &trace,
+        "fc",
+        &|_| 1.5,
+        &sc.breakpoints(),
+        sc.duration_s,
+        signals,
+    );
     (trace, m)
 }
 

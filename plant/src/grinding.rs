@@ -1,0 +1,1 @@
+//! Grinding plant (in progress).

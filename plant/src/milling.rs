@@ -1,0 +1,1 @@
+//! Milling plant (in progress).
