@@ -2,6 +2,8 @@
 //!
 //! Exit codes: 0 ok, 1 refuted or failed, 2 bad input (unreadable file, spec error).
 
+mod cli;
+
 use clap::{Parser, Subcommand, ValueEnum};
 use miette::{LabeledSpan, MietteDiagnostic, NamedSource, Report};
 use qloop::{Diag, Plan, Target};
@@ -81,7 +83,71 @@ enum Cmd {
         #[arg(long, default_value = "generic32")]
         target: String,
     },
-    /// Run check, gen and prove on the built-in Koren–Masory (1981) spec; write to ./qloop-demo/.
+    /// Run the compiled controller (fixed-point and f64 reference) in closed loop on a
+    /// reference plant; write DIR/trace.csv, plots (SVG, PNG) and a summary.
+    ///
+    /// The generated Rust is compiled with cargo into a shared library (cached under
+    /// $QLOOP_CACHE or ~/.cache/qloop/sim) and called through its `step`, so the run
+    /// exercises the real routine.
+    Sim {
+        /// The spec file (*.qloop).
+        spec: PathBuf,
+        /// The plant: turning, milling or grinding.
+        #[arg(long, default_value = "turning")]
+        plant: String,
+        /// A built-in scenario of the plant, or a scenario TOML file.
+        #[arg(long, default_value = "depth-steps")]
+        scenario: String,
+        /// Output directory.
+        #[arg(long, default_value = "qloop-sim")]
+        out: PathBuf,
+        /// Plant integration substeps per controller period.
+        #[arg(long, default_value_t = 20)]
+        substeps: usize,
+        /// Cost-model target (see `qloop targets`).
+        #[arg(long, default_value = "generic32")]
+        target: String,
+    },
+    /// Monte-Carlo envelope: closed-loop runs over drawn plant parameters and scenarios, on
+    /// every core, reporting the worst case of each metric and the seed that produced it.
+    Sweep {
+        /// The spec file (*.qloop).
+        spec: PathBuf,
+        /// The plant: turning, milling or grinding.
+        #[arg(long, default_value = "turning")]
+        plant: String,
+        /// Scenarios to draw from (built-in names or TOML files; repeatable). Default: every
+        /// built-in scenario of the plant.
+        #[arg(long)]
+        scenario: Vec<String>,
+        /// Number of draws.
+        #[arg(long, default_value_t = 1000)]
+        draws: u64,
+        /// Base seed of the draws.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Worker threads (default: every core).
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// Replay the draw with this seed (as the report prints it) like `qloop sim`, writing
+        /// its trace, plots and summary to --out.
+        #[arg(long, value_parser = parse_seed)]
+        replay: Option<u64>,
+        /// Output directory for --replay.
+        #[arg(long, default_value = "qloop-sweep")]
+        out: PathBuf,
+        /// Also write the report to this file.
+        #[arg(long)]
+        report: Option<PathBuf>,
+        /// Plant integration substeps per controller period.
+        #[arg(long, default_value_t = 20)]
+        substeps: usize,
+        /// Cost-model target (see `qloop targets`).
+        #[arg(long, default_value = "generic32")]
+        target: String,
+    },
+    /// Run check, gen, a closed-loop simulation (turning, depth steps: 000 Fig. 5) and prove
+    /// on the built-in Koren–Masory (1981) spec; write to ./qloop-demo/.
     ///
     /// The proofs need z3 and/or cvc5 (skipped with a note if neither is installed).
     Demo {
@@ -180,6 +246,58 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 Err(Fail(1))
             }
         }
+        Cmd::Sim {
+            spec,
+            plant,
+            scenario,
+            out,
+            substeps,
+            target,
+        } => {
+            let (plan, _) = load(&spec, &target)?;
+            let r = cli::sim::sim(&cli::sim::SimArgs {
+                plan: &plan,
+                plant: &plant,
+                scenario: &scenario,
+                out: &out,
+                substeps: substeps.max(1),
+            })?;
+            print!("{}", r.summary);
+            for f in &r.files {
+                println!("wrote {}", f.display());
+            }
+            Ok(())
+        }
+        Cmd::Sweep {
+            spec,
+            plant,
+            scenario,
+            draws,
+            seed,
+            jobs,
+            replay,
+            out,
+            report,
+            substeps,
+            target,
+        } => {
+            let (plan, _) = load(&spec, &target)?;
+            run_sweep(
+                &plan,
+                &cli::sweep::SweepArgs {
+                    spec: &plan.prog.name,
+                    plant: &plant,
+                    scenarios: &scenario,
+                    draws,
+                    seed,
+                    substeps: substeps.max(1),
+                },
+                jobs,
+                replay,
+                &out,
+                report.as_deref(),
+            )
+        }
         Cmd::Demo { out } => demo(&out),
         Cmd::Targets => {
             for t in Target::ALL {
@@ -188,6 +306,85 @@ fn run(cli: Cli) -> Result<(), Fail> {
             Ok(())
         }
     }
+}
+
+/// A seed in decimal or `0x` hexadecimal.
+fn parse_seed(s: &str) -> Result<u64, String> {
+    let r = match s.strip_prefix("0x").or_else(|| s.strip_prefix("0X")) {
+        Some(h) => u64::from_str_radix(h, 16),
+        None => s.parse(),
+    };
+    r.map_err(|e| format!("`{s}` is not a seed (a decimal or 0x-hex 64-bit number): {e}"))
+}
+
+fn run_sweep(
+    plan: &Plan,
+    a: &cli::sweep::SweepArgs,
+    jobs: Option<usize>,
+    replay: Option<u64>,
+    out: &Path,
+    report: Option<&Path>,
+) -> Result<(), Fail> {
+    let compiled = cli::sim::compile(plan)?;
+    if let Some(seed) = replay {
+        let (d, trace, m) = cli::sweep::replay(a, &compiled, seed)?;
+        let args = cli::sim::SimArgs {
+            plan,
+            plant: a.plant,
+            scenario: &d.scenario.name,
+            out,
+            substeps: a.substeps,
+        };
+        let params: Vec<String> = d.params.iter().map(|(n, v)| format!("{n}={v}")).collect();
+        println!(
+            "draw {seed:#018x}: scenario {} (noise seed {}), {}",
+            d.scenario.name,
+            d.scenario.seed,
+            params.join(" ")
+        );
+        let r = cli::sim::write_run(&args, &compiled, d.plant.as_ref(), &d.scenario, trace, m)?;
+        print!("{}", r.summary);
+        for f in &r.files {
+            println!("wrote {}", f.display());
+        }
+        return Ok(());
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs.unwrap_or(0))
+        .build()
+        .map_err(|e| {
+            eprintln!("error: cannot start worker threads: {e}");
+            Fail(1)
+        })?;
+    let start = std::time::Instant::now();
+    let env = pool.install(|| cli::sweep::sweep(a, &compiled))?;
+    let secs = start.elapsed().as_secs_f64();
+    let nominal = qloop_plant::catalog::plant_named(a.plant).map_err(|e| {
+        eprintln!("error: {e}");
+        Fail(2)
+    })?;
+    let scs = cli::sweep::scenarios(a.plant, a.scenarios)?;
+    let sig = compiled.signals().clone();
+    let units = |name: &str| {
+        sig.states
+            .iter()
+            .chain(&sig.outputs)
+            .find(|s| s.0 == name)
+            .map_or(String::new(), |s| s.1.to_string())
+    };
+    let mut text = cli::sweep::report(a, nominal.as_ref(), &scs, &env, sig.inputs[0].1, &units);
+    text.push_str(&format!(
+        "
+{} draws in {secs:.1} s on {} threads ({:.0} draws/s)\n",
+        env.draws,
+        pool.current_num_threads(),
+        env.draws as f64 / secs.max(1e-9)
+    ));
+    print!("{text}");
+    if let Some(p) = report {
+        write_atomic(p, &text)?;
+    }
+    Ok(())
 }
 
 fn target(name: &str) -> Result<Target, Fail> {
@@ -360,6 +557,24 @@ fn demo(out: &Path) -> Result<(), Fail> {
         let p = out.join(f);
         write_atomic(&p, text)?;
         println!("wrote {}", p.display());
+    }
+    // The closed-loop step: the compiled controller on the turning plant, 000 Fig. 5.
+    println!();
+    let sim_out = out.join("sim");
+    let r = cli::sim::sim(&cli::sim::SimArgs {
+        plan: &plan,
+        plant: "turning",
+        scenario: "depth-steps",
+        out: &sim_out,
+        substeps: 20,
+    })?;
+    print!("{}", r.summary);
+    for f in &r.files {
+        println!("wrote {}", f.display());
+    }
+    if !r.metrics.fixed.stable() {
+        eprintln!("error: the demo's closed loop is unstable");
+        return Err(Fail(1));
     }
     // The proof step: every obligation, with the verdict cache (an unchanged spec re-proves
     // instantly).

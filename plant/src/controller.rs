@@ -59,6 +59,12 @@ pub fn to_bits(v: f64, frac: i32) -> i64 {
     r as i64
 }
 
+/// The sample period in seconds of a generated module's `PERIOD_US`: the correctly rounded
+/// quotient, so that 100000 µs is exactly the double nearest 0.1 (as the spec wrote it).
+pub fn period_s(period_us: u64) -> f64 {
+    period_us as f64 / 1e6
+}
+
 /// The physical value of a raw integer with `frac` fraction bits.
 pub fn from_bits(raw: i64, frac: i32) -> f64 {
     raw as f64 * 2f64.powi(-frac)
@@ -88,7 +94,7 @@ macro_rules! fixed_controller {
                 $crate::module_signals!(m)
             }
             fn period(&self) -> f64 {
-                m::Controller::PERIOD_US as f64 * 1e-6
+                $crate::controller::period_s(m::Controller::PERIOD_US)
             }
             fn step(&mut self, inputs: &[f64], outputs: &mut [f64]) {
                 let mut raw = [0i64; m::INPUTS.len()];

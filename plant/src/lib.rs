@@ -3,25 +3,34 @@
 //! reference side by side.
 //!
 //! * [`turning`]: CNC lathe under ACC (000_b8cbacf29caa8fe2.txt, 002_39e44efc2e4f2eb6.txt).
+//! * [`milling`]: CNC lag and milling process under force control (003_780323f84df40eb0.txt,
+//!   eqs. 1-3), the work-piece profile of its Fig. 1.
+//! * [`grinding`]: plunge grinding under force control (004_9e0133852f31a0cf.txt).
+//! * [`discrete`]: exact ZOH discretisation of first-order parts (004 eqs. 6-7).
 //! * [`sensor`]: gain, seeded noise, saturation, ADC quantisation.
 //! * [`scenario`]: piecewise-linear channel schedules, in code or TOML.
+//! * [`plot`]: the figure of a run (SVG, PNG).
 //! * [`runner`]: ZOH, substep integration, both loops in lock step; [`metrics`]: settling,
 //!   overshoot, steady-state error, oscillation verdict and frequency, fixed − f64.
 
+pub mod catalog;
 pub mod controller;
+pub mod discrete;
 pub mod grinding;
 pub mod metrics;
 pub mod milling;
 pub mod plant;
+pub mod plot;
 pub mod runner;
 pub mod scenario;
 pub mod sensor;
+pub mod sweep;
 pub mod trace;
 pub mod turning;
 
 pub use controller::{Controller, Named, Signals};
 pub use metrics::{metrics, LoopMetrics, Metrics};
 pub use plant::{Param, Plant};
-pub use runner::{run, RunConfig};
+pub use runner::{run, run_single, RunConfig};
 pub use scenario::{Scenario, Schedule};
 pub use trace::Trace;

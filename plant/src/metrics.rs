@@ -68,8 +68,20 @@ pub struct Metrics {
 }
 
 /// Metrics of the signal `x` (sampled at `t`) against the constant reference `r` over
-/// `[t0, t1)`.
+/// `[t0, t1)`, with the settling band ±5% of `r`.
 pub fn segment(t: &[f64], x: &[f64], r: f64, t0: f64, t1: f64) -> Option<Segment> {
+    segment_in_band(t, x, r, t0, t1, SETTLE_BAND * r)
+}
+
+/// [`segment`] with the settling band ±`band`.
+pub fn segment_in_band(
+    t: &[f64],
+    x: &[f64],
+    r: f64,
+    t0: f64,
+    t1: f64,
+    band: f64,
+) -> Option<Segment> {
     let idx: Vec<usize> = (0..t.len()).filter(|&i| t[i] >= t0 && t[i] < t1).collect();
     if idx.len() < 8 {
         return None;
@@ -80,7 +92,6 @@ pub fn segment(t: &[f64], x: &[f64], r: f64, t0: f64, t1: f64) -> Option<Segment
     let tail = &xs[n - n / 5..];
     let ss_error = tail.iter().sum::<f64>() / tail.len() as f64 - r;
     let overshoot = xs.iter().map(|v| (v - r) / r).fold(0.0, f64::max);
-    let band = SETTLE_BAND * r;
     let settling_s = match xs.iter().rposition(|v| (v - r).abs() > band) {
         None => Some(0.0),
         Some(k) if k + 1 < n => Some(t[idx[k + 1]] - t0),
@@ -130,6 +141,29 @@ pub fn metrics(
     duration: f64,
     signals: &[&str],
 ) -> Metrics {
+    metrics_noisy(
+        trace,
+        measured,
+        reference,
+        breakpoints,
+        duration,
+        signals,
+        0.0,
+    )
+}
+
+/// [`metrics`] for a measurement with sensor noise of standard deviation `noise_sigma`: the
+/// settling band widens to ±max(5% of the reference, 4σ), so that noise alone (which leaves
+/// ±4σ in fewer than 1 sample in 10⁴) does not count as never settling.
+pub fn metrics_noisy(
+    trace: &Trace,
+    measured: &str,
+    reference: &dyn Fn(f64) -> f64,
+    breakpoints: &[f64],
+    duration: f64,
+    signals: &[&str],
+    noise_sigma: f64,
+) -> Metrics {
     let t = trace.col("t").unwrap_or_default();
     let mut edges = vec![0.0];
     edges.extend(breakpoints.iter().copied());
@@ -139,7 +173,11 @@ pub fn metrics(
         LoopMetrics {
             segments: edges
                 .windows(2)
-                .filter_map(|w| segment(&t, &x, reference(0.5 * (w[0] + w[1])), w[0], w[1]))
+                .filter_map(|w| {
+                    let r = reference(0.5 * (w[0] + w[1]));
+                    let band = (SETTLE_BAND * r).max(4.0 * noise_sigma);
+                    segment_in_band(&t, &x, r, w[0], w[1], band)
+                })
                 .collect(),
         }
     };

@@ -108,54 +108,55 @@ impl Loop {
     }
 }
 
-/// Runs `fixed` and `reference` (the same spec) on copies of `plant` through `sc`.
-pub fn run(
-    plant: &dyn Plant,
-    fixed: Box<dyn Controller + Send>,
-    reference: Box<dyn Controller + Send>,
-    sc: &Scenario,
-    cfg: RunConfig,
-) -> Result<Trace, String> {
-    check_binding(plant, fixed.as_ref())?;
-    check_binding(plant, reference.as_ref())?;
-    check_channels(sc, fixed.as_ref())?;
-    if fixed.signals() != reference.signals() {
-        return Err("the fixed-point and reference controllers come from different specs".into());
-    }
-    let period = fixed.period();
+/// Checks a controller against the plant and scenario; returns its period.
+fn checked_period(plant: &dyn Plant, c: &dyn Controller, sc: &Scenario) -> Result<f64, String> {
+    check_binding(plant, c)?;
+    check_channels(sc, c)?;
+    let period = c.period();
     if period.is_nan() || period <= 0.0 {
         return Err("the controller's period must be positive".into());
     }
-    let sig = fixed.signals();
-    let mut columns: Vec<String> = vec!["t".into()];
-    let names: Vec<String> = sig
-        .inputs
-        .iter()
-        .chain(&sig.states)
-        .chain(&sig.outputs)
-        .map(|n| n.0.to_string())
-        .collect();
-    let plant_cols: Vec<String> = plant.columns().iter().map(|c| c.to_string()).collect();
-    columns.extend(plant_cols.iter().cloned());
-    columns.extend(names.iter().cloned());
-    columns.extend(plant_cols.iter().map(|c| format!("{c}_ref")));
-    columns.extend(names.iter().map(|c| format!("{c}_ref")));
+    Ok(period)
+}
 
-    let mut loops = [Loop::new(plant, fixed, sc), Loop::new(plant, reference, sc)];
+/// The trace columns of one loop: plant columns, then the controller's inputs, states and
+/// outputs by spec name, each with `suffix`.
+fn loop_columns(plant: &dyn Plant, c: &dyn Controller, suffix: &str) -> Vec<String> {
+    let sig = c.signals();
+    let names = sig.inputs.iter().chain(&sig.states).chain(&sig.outputs);
+    plant
+        .columns()
+        .iter()
+        .copied()
+        .chain(names.map(|n| n.0))
+        .map(|c| format!("{c}{suffix}"))
+        .collect()
+}
+
+/// Drives `loops` in lock step through `sc`: sample every period, then integrate each plant
+/// over the period in `substeps` steps with the command held.
+fn drive(
+    loops: &mut [Loop],
+    sc: &Scenario,
+    period: f64,
+    cfg: RunConfig,
+    columns: Vec<String>,
+) -> Trace {
     let n = (sc.duration_s / period).round() as usize;
     let substeps = cfg.substeps.max(1);
     let h = period / substeps as f64;
     let mut trace = Trace {
-        columns,
         rows: Vec::with_capacity(n + 1),
+        columns,
     };
     for k in 0..=n {
         let t = k as f64 * period;
-        let mut row = vec![t];
+        let mut row = Vec::with_capacity(trace.columns.len());
+        row.push(t);
         for l in loops.iter_mut() {
             l.sample(sc, t);
         }
-        for l in &loops {
+        for l in loops.iter() {
             l.record(sc, t, &mut row);
         }
         trace.rows.push(row);
@@ -165,5 +166,80 @@ pub fn run(
             }
         }
     }
-    Ok(trace)
+    trace
+}
+
+/// Runs `fixed` and `reference` (the same spec) on copies of `plant` through `sc`. Columns:
+/// `t`, then the fixed-point loop's (see [`run_single`]), then the reference loop's with the
+/// suffix `_ref`.
+pub fn run(
+    plant: &dyn Plant,
+    fixed: Box<dyn Controller + Send>,
+    reference: Box<dyn Controller + Send>,
+    sc: &Scenario,
+    cfg: RunConfig,
+) -> Result<Trace, String> {
+    let period = checked_period(plant, fixed.as_ref(), sc)?;
+    checked_period(plant, reference.as_ref(), sc)?;
+    if fixed.signals() != reference.signals()
+        || (fixed.period() - reference.period()).abs() > 1e-9 * period
+    {
+        return Err("the fixed-point and reference controllers come from different specs".into());
+    }
+    let mut columns = vec!["t".to_string()];
+    columns.extend(loop_columns(plant, fixed.as_ref(), ""));
+    columns.extend(loop_columns(plant, reference.as_ref(), "_ref"));
+    let mut loops = [Loop::new(plant, fixed, sc), Loop::new(plant, reference, sc)];
+    Ok(drive(&mut loops, sc, period, cfg, columns))
+}
+
+/// Runs one controller on a copy of `plant` through `sc`. Columns: `t`, the plant's columns,
+/// then the controller's inputs, states and outputs by spec name.
+pub fn run_single(
+    plant: &dyn Plant,
+    ctl: Box<dyn Controller + Send>,
+    sc: &Scenario,
+    cfg: RunConfig,
+) -> Result<Trace, String> {
+    let period = checked_period(plant, ctl.as_ref(), sc)?;
+    let mut columns = vec!["t".to_string()];
+    columns.extend(loop_columns(plant, ctl.as_ref(), ""));
+    let mut loops = [Loop::new(plant, ctl, sc)];
+    Ok(drive(&mut loops, sc, period, cfg, columns))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::turning::{scenario_named, Turning, TurningParams};
+    use crate::{fixed_controller, reference_controller};
+
+    #[test]
+    fn a_single_loop_is_the_fixed_half_of_a_paired_run() {
+        let plant = Turning::new(TurningParams::default());
+        let sc = scenario_named("noise").unwrap();
+        let paired = run(
+            &plant,
+            fixed_controller!(qloop_verified::koren_masory_1981),
+            reference_controller!(qloop_verified::koren_masory_1981_ref, 0.1),
+            &sc,
+            RunConfig::default(),
+        )
+        .unwrap();
+        let single = run_single(
+            &plant,
+            fixed_controller!(qloop_verified::koren_masory_1981),
+            &sc,
+            RunConfig::default(),
+        )
+        .unwrap();
+        assert_eq!(single.columns, paired.columns[..single.columns.len()]);
+        assert_eq!(single.rows.len(), paired.rows.len());
+        for (s, p) in single.rows.iter().zip(&paired.rows) {
+            assert_eq!(s[..], p[..s.len()]);
+        }
+        // The reference half differs (a different controller), so the check can fail.
+        let fc = paired.col("fc").unwrap();
+        assert_ne!(fc, paired.col("fc_ref").unwrap());
+    }
 }

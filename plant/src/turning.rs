@@ -199,8 +199,8 @@ impl Plant for Turning {
             Param {
                 name: "u",
                 value: p.u,
-                range: (0.6, 0.9),
-                why: "force exponent, 0.6 < u < 1 (002 eq. 5), tool-maker tables 0.7-0.85",
+                range: (0.7, 0.85),
+                why: "force exponent (002 eq. 5: 0.6 < u < 1); Kienzle tables for steels give 1 - mc = 0.70-0.85",
             },
             Param {
                 name: "tau_servo_s",

@@ -136,6 +136,16 @@ fn acc_fixed_gain_encoding_matches_interpreter() {
     differential("acc_fixed_gain");
 }
 
+#[test]
+fn milling_acc_encoding_matches_interpreter() {
+    differential("milling_acc");
+}
+
+#[test]
+fn grinding_pi_encoding_matches_interpreter() {
+    differential("grinding_pi");
+}
+
 /// Every obligation of `stem` is proved, by both solvers.
 fn proves_with_both_solvers(stem: &str) {
     let p = plan(stem);
@@ -229,7 +239,12 @@ fn exact_differential(stem: &str, sort: Sort, solver: Solver) {
 
 #[test]
 fn exact_term_encodings_match_interpreter() {
-    for stem in ["koren_masory_1981", "acc_fixed_gain"] {
+    for stem in [
+        "koren_masory_1981",
+        "acc_fixed_gain",
+        "milling_acc",
+        "grinding_pi",
+    ] {
         exact_differential(stem, Sort::BitVec, Solver::Z3);
         exact_differential(stem, Sort::Int, Solver::Z3);
         exact_differential(stem, Sort::Int, Solver::Cvc5);

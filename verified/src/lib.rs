@@ -4,6 +4,10 @@
 //! * [`koren_masory_1981`]: the adaptive ACC of Koren & Masory (1981), process estimator
 //!   (000_b8cbacf29caa8fe2.txt eqs. 8-9) and variable-gain loop (eqs. 12-13).
 //! * [`acc_fixed_gain`]: conventional ACC with a fixed gain (002_39e44efc2e4f2eb6.txt eqs. 6-9).
+//! * [`grinding_pi`]: the fixed-gain PI grinding force controller of Jenkins & Kurfess
+//!   (004_9e0133852f31a0cf.txt eqs. 3, 5, 8).
+//! * [`milling_acc`]: the same 1981 adaptive ACC retuned for the milling process of
+//!   003_780323f84df40eb0.txt (eqs. 1-3; T = 0.0839 s, F_r = 1.2 kN).
 //!
 //! The `*_ref` modules are the f64 reference controllers compiled from the same specs.
 //!
@@ -17,3 +21,9 @@ qloop_macros::controller!("specs/koren_masory_1981.qloop", kani);
 qloop_macros::controller!("specs/acc_fixed_gain.qloop");
 qloop_macros::controller!("specs/acc_fixed_gain.qloop", reference);
 qloop_macros::controller!("specs/acc_fixed_gain.qloop", kani);
+qloop_macros::controller!("specs/milling_acc.qloop");
+qloop_macros::controller!("specs/milling_acc.qloop", reference);
+qloop_macros::controller!("specs/milling_acc.qloop", kani);
+qloop_macros::controller!("specs/grinding_pi.qloop");
+qloop_macros::controller!("specs/grinding_pi.qloop", reference);
+qloop_macros::controller!("specs/grinding_pi.qloop", kani);

@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Regenerates the paper-reproduction figures (000_b8cbacf29caa8fe2.txt Figs. 5a, 5b, 6, 7 and
+# the milling and grinding runs) with `qloop sim`, from the seed specs in verified/specs.
+# Each figure comes with the run's summary table (*.txt); CI regenerates them and fails if a
+# committed summary no longer matches the code.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+cargo build -q --release -p qloop
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+fig() { # spec plant scenario name
+  ./target/release/qloop sim "verified/specs/$1.qloop" --plant "$2" --scenario "$3" --out "$tmp/$4" >/dev/null
+  cp "$tmp/$4/$1-$2-$3.svg" "docs/figures/$4.svg"
+  cp "$tmp/$4/$1-$2-$3.png" "docs/figures/$4.png"
+  cp "$tmp/$4/summary.txt" "docs/figures/$4.txt"
+  echo "docs/figures/$4.{svg,png,txt}"
+}
+fig acc_fixed_gain turning depth-steps fig5a-conventional-depth-steps
+fig koren_masory_1981 turning depth-steps fig5b-adaptive-depth-steps
+fig koren_masory_1981 turning depth-ramp fig6-adaptive-depth-ramp
+fig koren_masory_1981 turning speed-drop fig7-adaptive-speed-drop
+fig acc_fixed_gain turning speed-drop fig7-conventional-speed-drop
+fig milling_acc milling depth-profile milling-adaptive-depth-profile
+fig grinding_pi grinding force-step grinding-pi-force-step
+fig grinding_pi grinding eta-varying grinding-pi-eta-varying
