@@ -141,17 +141,26 @@ pub struct Envelope {
     pub max_diff: Vec<(String, Worst)>,
 }
 
-fn keep_max(slot: &mut Option<Worst>, value: f64, o: &Outcome) {
-    // Ties go to the lower seed, so the result does not depend on the order of the draws.
-    let better = match slot {
-        None => true,
-        Some(w) => value > w.value || (value == w.value && o.seed < w.outcome.seed),
-    };
-    if better {
-        *slot = Some(Worst {
+/// Replaces `w` by (`value`, `o`) if that is worse. Ties go to the lower seed, so the result
+/// does not depend on the order of the draws.
+fn keep_worse(w: &mut Worst, value: f64, o: &Outcome) {
+    if value > w.value || (value == w.value && o.seed < w.outcome.seed) {
+        *w = Worst {
             value,
             outcome: o.clone(),
-        });
+        };
+    }
+}
+
+fn keep_max(slot: &mut Option<Worst>, value: f64, o: &Outcome) {
+    match slot {
+        Some(w) => keep_worse(w, value, o),
+        None => {
+            *slot = Some(Worst {
+                value,
+                outcome: o.clone(),
+            })
+        }
     }
 }
 
@@ -181,11 +190,7 @@ impl Envelope {
         keep_max(&mut self.settling_s, o.settling_s, o);
         for (name, d) in &o.max_diff {
             match self.max_diff.iter_mut().find(|(n, _)| n == name) {
-                Some((_, w)) => {
-                    let mut slot = Some(w.clone());
-                    keep_max(&mut slot, *d, o);
-                    *w = slot.expect("kept");
-                }
+                Some((_, w)) => keep_worse(w, *d, o),
                 None => self.max_diff.push((
                     name.clone(),
                     Worst {
@@ -223,11 +228,7 @@ impl Envelope {
         }
         for (name, w) in other.max_diff {
             match self.max_diff.iter_mut().find(|(n, _)| *n == name) {
-                Some((_, mine)) => {
-                    let mut slot = Some(mine.clone());
-                    keep_max(&mut slot, w.value, &w.outcome);
-                    *mine = slot.expect("kept");
-                }
+                Some((_, mine)) => keep_worse(mine, w.value, &w.outcome),
                 None => self.max_diff.push((name, w)),
             }
         }
