@@ -67,7 +67,6 @@ use crate::discrete::{exp_diff, zoh_first_order};
 use crate::plant::{unknown_param, Param, Plant};
 use crate::scenario::{Scenario, Schedule};
 use crate::sensor::SensorParams;
-use std::collections::BTreeMap;
 
 /// The paper's encoder resolution, 2 µm (text on Fig. 7: "the resolution of the encoder
 /// position is 2 μm which when multiplied by the spring constant yields a force resolution of
@@ -278,23 +277,6 @@ impl Plant for Grinding {
     }
 }
 
-fn sched(points: &[(f64, f64)]) -> Schedule {
-    Schedule(points.iter().map(|&(t, v)| [t, v]).collect())
-}
-
-fn scenario(name: &str, duration_s: f64, noise: f64, ch: &[(&str, Schedule)]) -> Scenario {
-    Scenario {
-        name: name.into(),
-        duration_s,
-        noise_sigma: noise,
-        seed: 1,
-        channels: ch
-            .iter()
-            .map(|(n, s)| (n.to_string(), s.clone()))
-            .collect::<BTreeMap<_, _>>(),
-    }
-}
-
 /// Time of the 20 → 25 N force step in the Table 1 scenarios (s).
 pub const STEP_AT_S: f64 = 1.0;
 
@@ -319,11 +301,11 @@ pub const STEP_AT_S: f64 = 1.0;
 /// * `noise`: `force-step` with 0.5 N (1σ) sensor noise (chosen: about the 0.46 N force
 ///   resolution of the text on Fig. 7).
 pub fn scenarios() -> Vec<Scenario> {
-    let step = || sched(&[(0.0, 20.0), (STEP_AT_S, 20.0), (STEP_AT_S, 25.0)]);
+    let step = || Schedule::from_points(&[(0.0, 20.0), (STEP_AT_S, 20.0), (STEP_AT_S, 25.0)]);
     vec![
-        scenario("force-step", STEP_AT_S + 4.5, 0.0, &[("fr", step())]),
-        scenario("step-25", 1.0, 0.0, &[("fr", Schedule::constant(25.0))]),
-        scenario(
+        Scenario::new("force-step", STEP_AT_S + 4.5, 0.0, &[("fr", step())]),
+        Scenario::new("step-25", 1.0, 0.0, &[("fr", Schedule::constant(25.0))]),
+        Scenario::new(
             "eta-varying",
             6.5,
             0.0,
@@ -331,11 +313,17 @@ pub fn scenarios() -> Vec<Scenario> {
                 ("fr", step()),
                 (
                     "eta_factor",
-                    sched(&[(1.5, 1.0), (3.0, 4.0), (3.0, 0.25), (4.5, 0.25), (6.0, 1.0)]),
+                    Schedule::from_points(&[
+                        (1.5, 1.0),
+                        (3.0, 4.0),
+                        (3.0, 0.25),
+                        (4.5, 0.25),
+                        (6.0, 1.0),
+                    ]),
                 ),
             ],
         ),
-        scenario("noise", STEP_AT_S + 4.5, 0.5, &[("fr", step())]),
+        Scenario::new("noise", STEP_AT_S + 4.5, 0.5, &[("fr", step())]),
     ]
 }
 
@@ -362,7 +350,7 @@ mod tests {
     /// whatever the substep.
     #[test]
     fn spring_process_sampled_is_eq_7() {
-        let sc = scenario("x", 1.0, 0.0, &[("eta_factor", Schedule::constant(0.0))]);
+        let sc = Scenario::new("x", 1.0, 0.0, &[("eta_factor", Schedule::constant(0.0))]);
         let t = PAPER_PERIOD_S;
         let d = zoh_first_order(203.0, 224.0, t);
         let mut p = Grinding::new(GrindingParams::default());
@@ -383,7 +371,7 @@ mod tests {
     /// settled (s/(s + η), eq. 11), and the removal keeps F_N = (K_s/η)·dw/dt.
     #[test]
     fn process_relaxes_at_eta() {
-        let sc = scenario("x", 1.0, 0.0, &[]);
+        let sc = Scenario::new("x", 1.0, 0.0, &[]);
         let mut p = Grinding::new(GrindingParams::default());
         let t = held(&mut p, &sc, 0.1, 0.0, 0.1, 1e-4);
         let (f0, w0) = (p.force_n(), p.removed_mm());
@@ -404,7 +392,7 @@ mod tests {
     /// holds the command on the 2 µm grid.
     #[test]
     fn contact_is_one_sided_and_encoder_rounds() {
-        let sc = scenario("x", 1.0, 0.0, &[]);
+        let sc = Scenario::new("x", 1.0, 0.0, &[]);
         let mut p = Grinding::new(GrindingParams {
             encoder_mm: PAPER_ENCODER_MM,
             ..GrindingParams::default()

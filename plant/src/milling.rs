@@ -66,7 +66,6 @@ use crate::discrete::exp_diff;
 use crate::plant::{unknown_param, Param, Plant};
 use crate::scenario::{Scenario, Schedule};
 use crate::sensor::SensorParams;
-use std::collections::BTreeMap;
 
 /// Milling-plant parameters (003_780323f84df40eb0.txt, Sec. II.A and Sec. V).
 #[derive(Clone, Debug, PartialEq)]
@@ -318,23 +317,6 @@ fn fig1_schedule(t0: f64) -> (Schedule, f64) {
     (Schedule(pts), t)
 }
 
-fn sched(points: &[(f64, f64)]) -> Schedule {
-    Schedule(points.iter().map(|&(t, v)| [t, v]).collect())
-}
-
-fn scenario(name: &str, duration_s: f64, noise: f64, ch: &[(&str, Schedule)]) -> Scenario {
-    Scenario {
-        name: name.into(),
-        duration_s,
-        noise_sigma: noise,
-        seed: 1,
-        channels: ch
-            .iter()
-            .map(|(n, s)| (n.to_string(), s.clone()))
-            .collect::<BTreeMap<_, _>>(),
-    }
-}
-
 /// The milling scenarios: 003 Fig. 1's depth profile at 715 rpm, the same with sensor noise,
 /// and an air gap.
 pub fn scenarios() -> Vec<Scenario> {
@@ -342,14 +324,14 @@ pub fn scenarios() -> Vec<Scenario> {
     let (profile, end) = fig1_schedule(0.0);
     vec![
         // 003 Fig. 1: b = 3 → 5 → 3 → 2 mm (see FIG1_PROFILE).
-        scenario(
+        Scenario::new(
             "depth-profile",
             end,
             0.0,
             &[("b_mm", profile.clone()), ("n_rpm", n715.clone())],
         ),
         // The same with 40 N (1σ, 3.3% of F_r) force-sensor noise.
-        scenario(
+        Scenario::new(
             "noise",
             end,
             0.04,
@@ -357,14 +339,14 @@ pub fn scenarios() -> Vec<Scenario> {
         ),
         // The tool approaches in air for 1 s, cuts 3 mm, leaves the work (b = 0) for 2 s and
         // re-enters: the feed runs to its limit in air, so the re-entry overloads the tool.
-        scenario(
+        Scenario::new(
             "air-gap",
             20.0,
             0.0,
             &[
                 (
                     "b_mm",
-                    sched(&[
+                    Schedule::from_points(&[
                         (1.0, 0.0),
                         (1.0, 3.0),
                         (10.0, 3.0),

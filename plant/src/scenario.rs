@@ -36,6 +36,11 @@ impl TryFrom<Vec<Vec<f64>>> for Schedule {
 }
 
 impl Schedule {
+    /// From `(time_s, value)` points.
+    pub fn from_points(points: &[(f64, f64)]) -> Schedule {
+        Schedule(points.iter().map(|&(t, v)| [t, v]).collect())
+    }
+
     /// A constant.
     pub fn constant(v: f64) -> Schedule {
         Schedule(vec![[0.0, v]])
@@ -87,6 +92,25 @@ fn one() -> u64 {
 }
 
 impl Scenario {
+    /// A scenario with noise seed 1 and the given channels.
+    pub fn new(
+        name: &str,
+        duration_s: f64,
+        noise_sigma: f64,
+        channels: &[(&str, Schedule)],
+    ) -> Scenario {
+        Scenario {
+            name: name.into(),
+            duration_s,
+            noise_sigma,
+            seed: 1,
+            channels: channels
+                .iter()
+                .map(|(n, s)| (n.to_string(), s.clone()))
+                .collect(),
+        }
+    }
+
     /// A channel's value at `t`, or `default` if the scenario does not set it.
     pub fn value(&self, channel: &str, t: f64, default: f64) -> f64 {
         self.channels.get(channel).map_or(default, |s| s.at(t))

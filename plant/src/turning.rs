@@ -24,7 +24,7 @@ use crate::controller::Named;
 use crate::plant::{unknown_param, Param, Plant};
 use crate::scenario::{Scenario, Schedule};
 use crate::sensor::SensorParams;
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::VecDeque;
 
 /// Turning-plant parameters.
 #[derive(Clone, Debug, PartialEq)]
@@ -229,37 +229,20 @@ impl Plant for Turning {
     }
 }
 
-fn sched(points: &[(f64, f64)]) -> Schedule {
-    Schedule(points.iter().map(|&(t, v)| [t, v]).collect())
-}
-
-fn scenario(name: &str, duration_s: f64, noise: f64, ch: &[(&str, Schedule)]) -> Scenario {
-    Scenario {
-        name: name.into(),
-        duration_s,
-        noise_sigma: noise,
-        seed: 1,
-        channels: ch
-            .iter()
-            .map(|(n, s)| (n.to_string(), s.clone()))
-            .collect::<BTreeMap<_, _>>(),
-    }
-}
-
 /// The turning scenarios of the papers' experiments (000 Figs. 5-7), plus an air gap and
 /// sensor noise. The tool approaches in air for 1 s, then engages.
 pub fn scenarios() -> Vec<Scenario> {
     let n500 = Schedule::constant(500.0);
     vec![
         // 000 Fig. 5: depth 2 → 4 → 6 mm at 500 rpm.
-        scenario(
+        Scenario::new(
             "depth-steps",
             46.0,
             0.0,
             &[
                 (
                     "a_mm",
-                    sched(&[
+                    Schedule::from_points(&[
                         (1.0, 0.0),
                         (1.0, 2.0),
                         (16.0, 2.0),
@@ -272,38 +255,41 @@ pub fn scenarios() -> Vec<Scenario> {
             ],
         ),
         // 000 Fig. 6: depth ramped linearly from 2 to 8 mm.
-        scenario(
+        Scenario::new(
             "depth-ramp",
             60.0,
             0.0,
             &[
                 (
                     "a_mm",
-                    sched(&[(1.0, 0.0), (1.0, 2.0), (10.0, 2.0), (55.0, 8.0)]),
+                    Schedule::from_points(&[(1.0, 0.0), (1.0, 2.0), (10.0, 2.0), (55.0, 8.0)]),
                 ),
                 ("n_rpm", n500.clone()),
             ],
         ),
         // 000 Fig. 7: spindle 500 → 300 rpm. The depth is not given; 4 mm chosen: there the
         // conventional loop is stable at 500 rpm and, by the force model, not at 300 rpm.
-        scenario(
+        Scenario::new(
             "speed-drop",
             40.0,
             0.0,
             &[
-                ("a_mm", sched(&[(1.0, 0.0), (1.0, 4.0)])),
-                ("n_rpm", sched(&[(20.0, 500.0), (20.0, 300.0)])),
+                ("a_mm", Schedule::from_points(&[(1.0, 0.0), (1.0, 4.0)])),
+                (
+                    "n_rpm",
+                    Schedule::from_points(&[(20.0, 500.0), (20.0, 300.0)]),
+                ),
             ],
         ),
         // The tool leaves the work (a = 0) for 3 s and re-enters.
-        scenario(
+        Scenario::new(
             "air-gap",
             40.0,
             0.0,
             &[
                 (
                     "a_mm",
-                    sched(&[
+                    Schedule::from_points(&[
                         (1.0, 0.0),
                         (1.0, 3.0),
                         (20.0, 3.0),
@@ -316,11 +302,14 @@ pub fn scenarios() -> Vec<Scenario> {
             ],
         ),
         // A steady 3 mm cut with 50 N (1σ) measurement noise.
-        scenario(
+        Scenario::new(
             "noise",
             40.0,
             0.05,
-            &[("a_mm", sched(&[(1.0, 0.0), (1.0, 3.0)])), ("n_rpm", n500)],
+            &[
+                ("a_mm", Schedule::from_points(&[(1.0, 0.0), (1.0, 3.0)])),
+                ("n_rpm", n500),
+            ],
         ),
     ]
 }
