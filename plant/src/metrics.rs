@@ -184,12 +184,7 @@ pub fn metrics_noisy(
     let max_diff = signals
         .iter()
         .filter_map(|s| {
-            let (a, b) = (trace.col(s)?, trace.col(&format!("{s}_ref"))?);
-            let d = a
-                .iter()
-                .zip(&b)
-                .map(|(x, y)| (x - y).abs())
-                .fold(0.0, f64::max);
+            let d = trace.fixed_vs_ref(s)?.into_iter().fold(0.0, f64::max);
             Some((s.to_string(), d))
         })
         .collect();

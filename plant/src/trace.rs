@@ -19,6 +19,13 @@ impl Trace {
         Some(self.rows.iter().map(|r| r[i]).collect())
     }
 
+    /// |fixed − f64| of the controller signal `name` per sample: the column `name` against
+    /// `name_ref` (see [`crate::run`]).
+    pub fn fixed_vs_ref(&self, name: &str) -> Option<Vec<f64>> {
+        let (a, b) = (self.col(name)?, self.col(&format!("{name}_ref"))?);
+        Some(a.iter().zip(&b).map(|(x, y)| (x - y).abs()).collect())
+    }
+
     /// CSV text (header line, then one line per row; shortest round-trip floats).
     pub fn to_csv(&self) -> String {
         let mut s = self.columns.join(",");

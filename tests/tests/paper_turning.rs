@@ -175,11 +175,7 @@ fn fixed_point_tracks_the_f64_reference_within_the_derived_bound() {
         for (name, r) in rho {
             let e = bounds.iter().find(|(n, _)| n == name).expect("state").1;
             let bound = e / (1.0 - r);
-            let (a, b) = (
-                tr.col(name).unwrap(),
-                tr.col(&format!("{name}_ref")).unwrap(),
-            );
-            let d: Vec<f64> = a.iter().zip(&b).map(|(x, y)| (x - y).abs()).collect();
+            let d = tr.fixed_vs_ref(name).unwrap();
             let worst = d.iter().copied().fold(0.0, f64::max);
             let tail = d[d.len() * 9 / 10..].iter().copied().fold(0.0, f64::max);
             eprintln!(
