@@ -86,6 +86,11 @@ pub fn gen_kani(plan: &Plan) -> String {
     )
 }
 
+/// The C99 controller of a compiled plan: `(NAME.h, NAME.c)`.
+pub fn gen_c(plan: &Plan) -> (String, String) {
+    emit::c::files(plan)
+}
+
 /// What the `controller!` macro does with its input.
 ///
 /// Input forms: a spec inline (`controller name { .. }`), or a path string relative to the

@@ -31,8 +31,8 @@ enum Cmd {
     Check {
         /// The spec file (*.qloop).
         spec: PathBuf,
-        /// Cost-model target (see `qloop targets`).
-        #[arg(long, default_value = "generic32")]
+        /// Target: a built-in name (see `qloop targets`) or a target file (`*.toml`).
+        #[arg(long, default_value = "rv32i")]
         target: String,
     },
     /// Generate code from a spec.
@@ -45,8 +45,11 @@ enum Cmd {
         /// Write to this file (atomically) instead of standard output.
         #[arg(short, long)]
         output: Option<PathBuf>,
-        /// Cost-model target (see `qloop targets`).
-        #[arg(long, default_value = "generic32")]
+        /// `--lang c`: write NAME.h and NAME.c into this directory (created if missing).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Target: a built-in name (see `qloop targets`) or a target file (`*.toml`).
+        #[arg(long, default_value = "rv32i")]
         target: String,
     },
     /// Prove every obligation (overflow, initial, inductive, properties) with z3 and cvc5.
@@ -79,8 +82,8 @@ enum Cmd {
         /// Prove only the obligations whose name contains this text.
         #[arg(long)]
         only: Option<String>,
-        /// Cost-model target (see `qloop targets`).
-        #[arg(long, default_value = "generic32")]
+        /// Target: a built-in name (see `qloop targets`) or a target file (`*.toml`).
+        #[arg(long, default_value = "rv32i")]
         target: String,
     },
     /// Run the compiled controller (fixed-point and f64 reference) in closed loop on a
@@ -104,8 +107,8 @@ enum Cmd {
         /// Plant integration substeps per controller period.
         #[arg(long, default_value_t = 20)]
         substeps: usize,
-        /// Cost-model target (see `qloop targets`).
-        #[arg(long, default_value = "generic32")]
+        /// Target: a built-in name (see `qloop targets`) or a target file (`*.toml`).
+        #[arg(long, default_value = "rv32i")]
         target: String,
     },
     /// Monte-Carlo envelope: closed-loop runs over drawn plant parameters and scenarios, on
@@ -142,8 +145,8 @@ enum Cmd {
         /// Plant integration substeps per controller period.
         #[arg(long, default_value_t = 20)]
         substeps: usize,
-        /// Cost-model target (see `qloop targets`).
-        #[arg(long, default_value = "generic32")]
+        /// Target: a built-in name (see `qloop targets`) or a target file (`*.toml`).
+        #[arg(long, default_value = "rv32i")]
         target: String,
     },
     /// Run check, gen, a closed-loop simulation (turning, depth steps: 000 Fig. 5) and prove
@@ -178,6 +181,8 @@ enum Lang {
     /// Proof harnesses (`<spec>_proofs`): Kani proofs that also run as bolero property tests.
     /// Place the module next to the fixed-point one; needs `bolero` as a dev-dependency.
     Kani,
+    /// C99 `.h`/`.c` pair (stdint types, no UB, ACSL contract; see `--out`).
+    C,
 }
 
 /// A failure with its exit code.
@@ -202,6 +207,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
             spec,
             lang,
             output,
+            out,
             target,
         } => {
             let (plan, _) = load(&spec, &target)?;
@@ -209,7 +215,14 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 Lang::Rust => qloop::gen_rust(&plan),
                 Lang::RustRef => qloop::gen_reference(&plan),
                 Lang::Kani => qloop::gen_kani(&plan),
+                Lang::C => return gen_c(&plan, out.as_deref(), output.as_deref()),
             };
+            if out.is_some() {
+                eprintln!(
+                    "error: `--out DIR` is for `--lang c`, which writes two files; use `-o FILE`"
+                );
+                return Err(Fail(2));
+            }
             match output {
                 Some(p) => write_atomic(&p, &text),
                 None => {
@@ -300,9 +313,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
         }
         Cmd::Demo { out } => demo(&out),
         Cmd::Targets => {
-            for t in Target::ALL {
-                println!("{:<10} {}", t.name, t.about);
-            }
+            print!("{}", qloop::report::targets_table(&Target::builtin()));
             Ok(())
         }
     }
@@ -387,12 +398,43 @@ fn run_sweep(
     Ok(())
 }
 
+/// Writes the C pair into `dir`, or prints it (header, then source) without one.
+fn gen_c(plan: &Plan, dir: Option<&Path>, output: Option<&Path>) -> Result<(), Fail> {
+    let (h, c) = qloop::gen_c(plan);
+    if output.is_some() {
+        eprintln!("error: `--lang c` writes two files; give a directory with `--out DIR`");
+        return Err(Fail(2));
+    }
+    let Some(dir) = dir else {
+        print!("{h}\n{c}");
+        return Ok(());
+    };
+    std::fs::create_dir_all(dir).map_err(|e| {
+        eprintln!("error: cannot create `{}`: {e}", dir.display());
+        Fail(2)
+    })?;
+    let name = &plan.prog.name;
+    write_atomic(&dir.join(format!("{name}.h")), &h)?;
+    write_atomic(&dir.join(format!("{name}.c")), &c)
+}
+
+/// A built-in target by name, or a target file.
 fn target(name: &str) -> Result<Target, Fail> {
+    if name.ends_with(".toml") || name.contains('/') {
+        let text = std::fs::read_to_string(name).map_err(|e| {
+            eprintln!("error: cannot read target file `{name}`: {e}");
+            Fail(2)
+        })?;
+        return Target::from_toml(&text).map_err(|e| {
+            eprintln!("error: {name}: {e}");
+            eprintln!("help: see targets/*.toml for the format");
+            Fail(2)
+        });
+    }
     Target::by_name(name).ok_or_else(|| {
-        let names: Vec<_> = Target::ALL.iter().map(|t| t.name).collect();
         eprintln!(
-            "error: unknown target `{name}`; known targets: {}",
-            names.join(", ")
+            "error: unknown target `{name}`; built-in targets: {} (or give a target file, `*.toml`)",
+            Target::builtin_names().join(", ")
         );
         Fail(2)
     })

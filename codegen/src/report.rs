@@ -4,6 +4,7 @@
 use crate::emit::kind_name;
 use crate::ir::SigKind;
 use crate::lower::lir::{LStmt, Op};
+use crate::lower::target::{MulKind, Target};
 use crate::lower::Plan;
 use std::fmt::Write;
 
@@ -53,10 +54,19 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
     let p = &plan.prog;
     let mut o = String::new();
     let _ = writeln!(o, "controller `{}`  ({file})", p.name);
+    let t = &plan.target;
     let _ = writeln!(
         o,
         "period {} s, rounding {}, default word {} bits, target {} ({})",
-        p.period, p.rounding, p.word, plan.target.name, plan.target.about
+        p.period, p.rounding, p.word, t.name, t.about
+    );
+    let _ = writeln!(
+        o,
+        "target model: {}-bit words, C int {} bits (intermediates start there), multiplier {}, {}",
+        t.word_bits,
+        t.c.int_bits,
+        multiplier_text(t),
+        shifter_text(t)
     );
     let _ = writeln!(o);
     let rows: Vec<[String; 7]> = p
@@ -107,8 +117,8 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
         let what = m.name.clone().unwrap_or_else(|| g(m.constant));
         let how = if m.hw_mul {
             format!(
-                "hardware multiply (cost {} < shift-add {})",
-                m.costs.1, m.costs.0
+                "multiplier (cost {} < shift-add {} with {} adder(s))",
+                m.costs.1, m.costs.0, m.adders
             )
         } else if m.adders == 0 {
             if m.m.abs() == 1 {
@@ -122,7 +132,7 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
             }
         } else {
             format!(
-                "{} adder(s), {} shift(s) (cost {} vs multiply {})",
+                "shift-add, {} adder(s), {} shift(s) (cost {} <= multiplier {})",
                 m.adders, m.shifts, m.costs.0, m.costs.1
             )
         };
@@ -130,6 +140,7 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
     }
     let c = op_counts(plan);
     let _ = writeln!(o);
+    let _ = writeln!(o, "Working widths of step's values: {}", width_census(plan));
     let _ = writeln!(
         o,
         "step: {} add/sub, {} shifts, {} multiplies, {} compare/select, {} divisions",
@@ -139,6 +150,79 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
         o,
         "Errors are one-step bounds against real arithmetic from the same state and inputs, \
 assuming both take the same branches."
+    );
+    o
+}
+
+/// How many values of each integer width `step` computes, e.g. `i32 ×14, i64 ×3`.
+fn width_census(plan: &Plan) -> String {
+    let mut n = std::collections::BTreeMap::new();
+    for v in plan.vals.iter().filter(|v| !v.boolean) {
+        *n.entry((v.ty.bits, v.ty.signed)).or_insert(0usize) += 1;
+    }
+    let parts: Vec<String> = n
+        .iter()
+        .map(|((b, s), k)| format!("{}{b} ×{k}", if *s { "i" } else { "u" }))
+        .collect();
+    parts.join(", ")
+}
+
+fn multiplier_text(t: &Target) -> String {
+    match t.multiplier.kind {
+        MulKind::None => "none (library loop)".to_string(),
+        k => format!("{} in {} cycle(s)", k.as_str(), t.multiplier.cycles),
+    }
+}
+
+fn shifter_text(t: &Target) -> String {
+    if t.shifter.barrel {
+        format!("barrel shifter ({} cycle(s))", t.shifter.cycles)
+    } else {
+        format!(
+            "no barrel shifter ({} cycle(s) per bit per word)",
+            t.shifter.cycles
+        )
+    }
+}
+
+/// The `qloop targets` table: every target's word, C int, multiplier, shifter and the cost of
+/// a 16- and a 32-bit multiply in its model.
+pub fn targets_table(targets: &[Target]) -> String {
+    let head: Vec<String> = [
+        "target",
+        "word",
+        "C int",
+        "multiplier",
+        "shifter",
+        "mul16",
+        "mul32",
+        "about",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    let rows: Vec<Vec<String>> = targets
+        .iter()
+        .map(|t| {
+            vec![
+                t.name.clone(),
+                t.word_bits.to_string(),
+                t.c.int_bits.to_string(),
+                multiplier_text(t),
+                if t.shifter.barrel {
+                    "barrel".into()
+                } else {
+                    "per bit".into()
+                },
+                t.mul_cost(16).to_string(),
+                t.mul_cost(32).to_string(),
+                t.about.clone(),
+            ]
+        })
+        .collect();
+    let mut o = table(&head, &rows);
+    o.push_str(
+        "mul16/mul32: modelled cycles of a 16/32-bit multiply. The first target is the default.\n",
     );
     o
 }

@@ -123,7 +123,26 @@ fn unreadable_file_and_unknown_target_exit_2() {
     assert!(text(&o.stderr).contains("cannot read"));
     let o = qloop(&["check", &spec("acc_fixed_gain.qloop"), "--target", "z80"]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(text(&o.stderr).contains("known targets"));
+    let err = text(&o.stderr);
+    assert!(
+        err.contains("built-in targets: rv32i") && err.contains("atmega328p"),
+        "{err}"
+    );
+    // A target file with a bad value names the field.
+    let dir = std::env::temp_dir().join(format!("qloop-cli-target-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bad = dir.join("bad.toml");
+    let good = std::fs::read_to_string(root().join("targets/atmega328p.toml")).unwrap();
+    std::fs::write(&bad, good.replace("int_bits = 16", "int_bits = 24")).unwrap();
+    let o = qloop(&[
+        "check",
+        &spec("acc_fixed_gain.qloop"),
+        "--target",
+        bad.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("int_bits"), "{}", text(&o.stderr));
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]

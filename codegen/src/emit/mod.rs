@@ -1,6 +1,7 @@
 //! Emitters: fixed-point Rust, the f64 reference controller, proof harnesses, and shared doc
 //! text.
 
+pub mod c;
 pub mod kani;
 pub mod reference;
 pub mod rust;

@@ -457,7 +457,7 @@ impl<'a> Lowerer<'a> {
 
     /// The working type for raw values in `[lo, hi]`.
     fn working(&self, lo: i128, hi: i128, span: Span) -> Result<IntTy> {
-        IntTy::signed_for(lo, hi, self.target.native_bits).ok_or_else(|| {
+        IntTy::signed_for(lo, hi, self.target.min_work_bits()).ok_or_else(|| {
             Diag::new(span, format!("an intermediate needs more than 64 bits (raw range [{lo}, {hi}])"))
                 .help("narrow the declared ranges, or pin coarser formats with `#[q(..)]` / `#[lsb(..)]` on `let`s")
         })
@@ -875,7 +875,7 @@ impl<'a> Lowerer<'a> {
             let (rl, rh) = op.range((xl, xh), (yl, yh));
             let lo = xl.min(yl).min(rl);
             let hi = xh.max(yh).max(rh);
-            if let Some(t) = IntTy::signed_for(lo, hi, self.target.native_bits) {
+            if let Some(t) = IntTy::signed_for(lo, hi, self.target.min_work_bits()) {
                 break t;
             }
             if f <= x.frac.min(y.frac) - 64 {
@@ -946,7 +946,7 @@ impl<'a> Lowerer<'a> {
             let (x, y) = (self.v(a).clone(), self.v(b).clone());
             let (lo, hi) = Bin::Mul.range((x.lo, x.hi), (y.lo, y.hi));
             let (lo, hi) = (lo.min(x.lo).min(y.lo), hi.max(x.hi).max(y.hi));
-            if let Some(ty) = IntTy::signed_for(lo, hi, self.target.native_bits) {
+            if let Some(ty) = IntTy::signed_for(lo, hi, self.target.min_work_bits()) {
                 let a2 = self.cast(a, ty, out);
                 let b2 = self.cast(b, ty, out);
                 let (plo, phi) = Bin::Mul.range((x.lo, x.hi), (y.lo, y.hi));
@@ -1001,7 +1001,7 @@ impl<'a> Lowerer<'a> {
         if m == 0 {
             return Ok(self.push(
                 Op::Const(0),
-                IntTy::signed(self.target.native_bits),
+                IntTy::signed(self.target.min_work_bits()),
                 frac,
                 0,
                 0,
@@ -1034,10 +1034,8 @@ impl<'a> Lowerer<'a> {
             None => self.working(-(xm * maxc), xm * maxc, span)?,
         };
         let bits = ty.bits;
-        let sa_cost = plan.adders() as u32 * self.target.add_cost(bits)
-            + plan.shifts() as u32 * self.target.shift_cost(bits)
-            + u32::from(plan.negate) * self.target.add_cost(bits);
-        let hw_cost = self.target.mul_cost(bits);
+        let sa_cost = self.target.shift_add_cost(&plan, bits);
+        let hw_cost = self.target.const_mul_cost(bits);
         let (plo, phi) = Bin::Mul.range((xv.lo, xv.hi), (m, m));
         let hw = plan.adders() > 0 && hw_cost < sa_cost;
         self.mults.push(MulNote {

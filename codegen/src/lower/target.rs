@@ -1,85 +1,391 @@
-//! Targets and the cost model that picks shift-add or the hardware multiplier.
+//! Target descriptions (`targets/*.toml`) and the cost model that picks, per constant
+//! multiplication, a shift-add network or the hardware multiplier.
+//!
+//! A target gives its native word width, its multiplier (none, 8×8, 16×16, 32×32→32,
+//! 32×32→64 or 64×64→64, with its cycles), whether it has a barrel shifter (or pays per bit),
+//! the cost of add, load/store and a library call, and the widths of C's `int` and `long`.
+//! The built-in targets are the files of the workspace's `targets/` folder, embedded at
+//! build time; `--target FILE.toml` loads another one.
+//!
+//! The model counts cycles of straight-line code, the way a compiler for the target would
+//! emit it; it only has to rank the two ways to multiply by a constant, and the object-code
+//! checks (`tests/tests/object_code.rs`) confirm on real compilers that the choice survives.
+//! Choices never change results: a shift-add network and a multiply compute the same exact
+//! product, so every target's code is bit-for-bit the same function.
 
-/// A target's word size and operation costs (cycles, roughly).
-#[derive(Clone, Debug, PartialEq)]
+use serde::Deserialize;
+
+use super::shift_add::ShiftAddPlan;
+
+/// A target's word sizes and operation costs (cycles).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Target {
     /// Name used on the command line.
-    pub name: &'static str,
+    pub name: String,
     /// One-line description.
-    pub about: &'static str,
-    /// Native register width; intermediates are at least this wide.
-    pub native_bits: u32,
-    /// Cost of one add/subtract/compare on a native word.
-    pub add: u32,
-    /// Cost of one constant shift on a native word.
-    pub shift: u32,
-    /// Cost of one multiply whose result fits a native word.
-    pub mul_native: u32,
-    /// Cost of one widening multiply (double-word result).
-    pub mul_wide: u32,
+    pub about: String,
+    /// Native register width in bits (8 on AVR, 32 on Cortex-M and RV32, 64 on the host).
+    pub word_bits: u32,
+    /// The hardware multiplier.
+    pub multiplier: Multiplier,
+    /// How constant shifts cost.
+    pub shifter: Shifter,
+    /// Cycle costs of the other operations.
+    pub costs: Costs,
+    /// C type widths.
+    pub c: CTypes,
+    /// Compilers, disassembler and simulator for this target (optional).
+    #[serde(default)]
+    pub toolchain: Toolchain,
 }
 
-impl Target {
-    /// The default: a 32-bit core without a fast multiplier (RV32I-class: `mul` is a
-    /// library call of a few dozen cycles), so constant gains always become shift-add.
-    pub const GENERIC32: Target = Target {
-        name: "generic32",
-        about: "32-bit core, no fast multiplier (RV32I-class)",
-        native_bits: 32,
-        add: 1,
-        shift: 1,
-        mul_native: 32,
-        mul_wide: 40,
-    };
+/// The multiplier: its operand/result shape and cycles per instruction.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Multiplier {
+    /// Shape of the multiply instruction.
+    pub kind: MulKind,
+    /// Cycles of one multiply instruction (0 if there is none).
+    pub cycles: u32,
+}
 
-    /// A 32-bit core with a single-cycle multiplier and a multi-cycle widening multiply
-    /// (Cortex-M3/M4-class): short shift-add chains still win, long ones lose.
-    pub const FASTMUL32: Target = Target {
-        name: "fastmul32",
-        about: "32-bit core, single-cycle MUL, multi-cycle SMULL (Cortex-M3/M4-class)",
-        native_bits: 32,
-        add: 1,
-        shift: 1,
-        mul_native: 1,
-        mul_wide: 3,
-    };
+/// Shape of a target's multiply instruction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+pub enum MulKind {
+    /// No multiplier: products are a library shift-and-add loop.
+    #[serde(rename = "none")]
+    None,
+    /// 8×8→16 (AVR `MUL`).
+    #[serde(rename = "8x8")]
+    M8x8,
+    /// 16×16→32.
+    #[serde(rename = "16x16")]
+    M16x16,
+    /// 32×32→32, low half only (ARMv6-M `MULS`).
+    #[serde(rename = "32x32->32")]
+    M32x32To32,
+    /// 32×32→64 (ARMv7-M `SMULL`, RISC-V `MUL` + `MULH`).
+    #[serde(rename = "32x32->64")]
+    M32x32To64,
+    /// 64×64→64 (64-bit hosts).
+    #[serde(rename = "64x64->64")]
+    M64x64To64,
+}
 
-    /// All built-in targets.
-    pub const ALL: [Target; 2] = [Target::GENERIC32, Target::FASTMUL32];
-
-    /// Looks a target up by name.
-    pub fn by_name(name: &str) -> Option<Target> {
-        Target::ALL.iter().find(|t| t.name == name).cloned()
+impl MulKind {
+    /// Operand width of one multiply instruction (0 for none).
+    pub fn width(self) -> u32 {
+        match self {
+            MulKind::None => 0,
+            MulKind::M8x8 => 8,
+            MulKind::M16x16 => 16,
+            MulKind::M32x32To32 | MulKind::M32x32To64 => 32,
+            MulKind::M64x64To64 => 64,
+        }
     }
 
-    /// Words needed for a `bits`-wide operation.
-    fn words(&self, bits: u32) -> u32 {
-        bits.div_ceil(self.native_bits).max(1)
+    /// Whether one instruction (or an instruction pair) yields the double-width product.
+    pub fn widening(self) -> bool {
+        matches!(self, MulKind::M8x8 | MulKind::M16x16 | MulKind::M32x32To64)
     }
 
-    /// Cost of an add/sub/compare of `bits` width (carry chain across words).
-    pub fn add_cost(&self, bits: u32) -> u32 {
-        self.add * self.words(bits)
-    }
-
-    /// Cost of a constant shift of `bits` width (double-word shifts need ~3 ops per word).
-    pub fn shift_cost(&self, bits: u32) -> u32 {
-        let w = self.words(bits);
-        self.shift * if w == 1 { 1 } else { 3 * w - 2 }
-    }
-
-    /// Cost of a multiply with a `bits`-wide result.
-    pub fn mul_cost(&self, bits: u32) -> u32 {
-        if bits <= self.native_bits {
-            self.mul_native
-        } else {
-            self.mul_wide * self.words(bits) / 2
+    /// The spelling used in target files.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            MulKind::None => "none",
+            MulKind::M8x8 => "8x8",
+            MulKind::M16x16 => "16x16",
+            MulKind::M32x32To32 => "32x32->32",
+            MulKind::M32x32To64 => "32x32->64",
+            MulKind::M64x64To64 => "64x64->64",
         }
     }
 }
 
+/// Constant shifts: a barrel shifter (any distance in one instruction per word) or a per-bit
+/// cost (AVR's one-bit `LSL`/`ROL`/`ASR`/`ROR`).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Shifter {
+    /// Any shift distance in one instruction.
+    pub barrel: bool,
+    /// Cycles per shift instruction (barrel), or per bit position per word (no barrel).
+    pub cycles: u32,
+}
+
+/// Cycle costs of add, load/store and a library call.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Costs {
+    /// One add/subtract/compare of a native word.
+    pub add: u32,
+    /// One load of a native word.
+    pub load: u32,
+    /// One store of a native word.
+    pub store: u32,
+    /// Call and return of a library routine (a software multiply).
+    pub call: u32,
+}
+
+/// Widths of C's integer types on the target.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CTypes {
+    /// Bits of `int` (16 on AVR): C computes in at least this width, so qloop's intermediates
+    /// start there too.
+    pub int_bits: u32,
+    /// Bits of `long`.
+    pub long_bits: u32,
+}
+
+/// Tools for building and running code for the target.
+#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Toolchain {
+    /// C compiler.
+    pub cc: Option<String>,
+    /// Its flags.
+    #[serde(default)]
+    pub cflags: Vec<String>,
+    /// Disassembler for the object-code checks.
+    pub objdump: Option<String>,
+    /// Rust target triple.
+    pub rust_target: Option<String>,
+    /// Instruction-set simulator.
+    pub simulator: Option<String>,
+    /// QEMU machine.
+    pub qemu_machine: Option<String>,
+}
+
+/// The built-in target files, embedded from the workspace's `targets/` folder.
+const BUILTIN: [(&str, &str); 7] = [
+    ("rv32i", include_str!("../../../targets/rv32i.toml")),
+    ("rv32imc", include_str!("../../../targets/rv32imc.toml")),
+    (
+        "atmega328p",
+        include_str!("../../../targets/atmega328p.toml"),
+    ),
+    ("cortex-m0", include_str!("../../../targets/cortex-m0.toml")),
+    (
+        "cortex-m0-slowmul",
+        include_str!("../../../targets/cortex-m0-slowmul.toml"),
+    ),
+    ("cortex-m4", include_str!("../../../targets/cortex-m4.toml")),
+    ("host", include_str!("../../../targets/host.toml")),
+];
+
+impl Target {
+    /// Parses a target description (the format of `targets/*.toml`), checking its values.
+    pub fn from_toml(text: &str) -> Result<Target, String> {
+        let t: Target = toml::from_str(text).map_err(|e| e.to_string())?;
+        t.validate()?;
+        Ok(t)
+    }
+
+    fn validate(&self) -> Result<(), String> {
+        let bad = |what: &str| Err(format!("target `{}`: {what}", self.name));
+        if !matches!(self.word_bits, 8 | 16 | 32 | 64) {
+            return bad("`word_bits` must be 8, 16, 32 or 64");
+        }
+        if !matches!(self.c.int_bits, 16 | 32) || !matches!(self.c.long_bits, 32 | 64) {
+            return bad("`c.int_bits` must be 16 or 32 and `c.long_bits` 32 or 64");
+        }
+        if (self.multiplier.kind == MulKind::None) != (self.multiplier.cycles == 0) {
+            return bad("`multiplier.cycles` must be 0 exactly when `multiplier.kind` is \"none\"");
+        }
+        if self.shifter.cycles == 0 || self.costs.add == 0 {
+            return bad("`shifter.cycles` and `costs.add` must be at least 1");
+        }
+        Ok(())
+    }
+
+    /// All built-in targets, the default first.
+    pub fn builtin() -> Vec<Target> {
+        BUILTIN
+            .iter()
+            .map(|(name, text)| {
+                Target::from_toml(text).unwrap_or_else(|e| {
+                    unreachable!("built-in target {name} is checked by tests: {e}")
+                })
+            })
+            .collect()
+    }
+
+    /// Names of the built-in targets.
+    pub fn builtin_names() -> Vec<&'static str> {
+        BUILTIN.iter().map(|(n, _)| *n).collect()
+    }
+
+    /// Looks a built-in target up by name.
+    pub fn by_name(name: &str) -> Option<Target> {
+        BUILTIN
+            .iter()
+            .find(|(n, _)| *n == name)
+            .and_then(|(_, text)| Target::from_toml(text).ok())
+    }
+
+    /// The narrowest width intermediates get: C's `int`, since C promotes narrower operands to
+    /// it anyway (16 bits on AVR, 32 elsewhere).
+    pub fn min_work_bits(&self) -> u32 {
+        self.c.int_bits
+    }
+
+    /// Native words needed for a `bits`-wide operation.
+    fn words(&self, bits: u32) -> u32 {
+        bits.div_ceil(self.word_bits).max(1)
+    }
+
+    /// Cost of an add/sub/compare of `bits` width (carry chain across words).
+    pub fn add_cost(&self, bits: u32) -> u32 {
+        self.costs.add * self.words(bits)
+    }
+
+    /// Cost of a constant shift by `k` of a `bits`-wide value. A barrel shifter does one word
+    /// per instruction (a multi-word shift needs about three per word to funnel the bits
+    /// across); without one, each bit position costs one instruction per word, except that
+    /// whole words just move.
+    pub fn shift_cost(&self, bits: u32, k: u32) -> u32 {
+        if k == 0 {
+            return 0;
+        }
+        let w = self.words(bits);
+        if self.shifter.barrel {
+            self.shifter.cycles * if w == 1 { 1 } else { 3 * w - 2 }
+        } else {
+            let moves = if k >= self.word_bits { w } else { 0 };
+            self.shifter.cycles * w * (k % self.word_bits) + moves
+        }
+    }
+
+    /// Cost of a multiply of two `bits`-wide operands keeping the low `bits` of the product
+    /// (the only multiply the plan emits; operands are widened first).
+    ///
+    /// With a widening `m`-bit multiplier the product needs `n(n+1)/2` partial products for
+    /// `n = ⌈bits/m⌉` limbs (the low `n` limbs of the schoolbook product). A multiplier that
+    /// only returns the low half (ARMv6-M `MULS`) must split wider operands into `m/2`-bit
+    /// limbs. Each partial product costs the multiply plus accumulating two limbs; more than two
+    /// limbs make it a library call (`__mulsi3`, `__aeabi_lmul`). Without a
+    /// multiplier the product is a shift-and-add loop over `bits` iterations.
+    pub fn mul_cost(&self, bits: u32) -> u32 {
+        let kind = self.multiplier.kind;
+        if kind == MulKind::None {
+            let per_iter = self.add_cost(bits) * 2 + self.shift_cost(bits, 1) * 2 + 2;
+            return self.costs.call + bits * per_iter;
+        }
+        let m = kind.width();
+        let n = if bits <= m {
+            1
+        } else if kind.widening() {
+            bits.div_ceil(m)
+        } else {
+            bits.div_ceil(m / 2)
+        };
+        let pp = n * (n + 1) / 2;
+        let limb_add = self.add_cost(m);
+        let body = pp * (self.multiplier.cycles + if pp > 1 { 2 * limb_add } else { 0 });
+        body + if n > 2 { self.costs.call } else { 0 }
+    }
+
+    /// Cost of multiplying by a constant on the multiplier: the multiply and loading the
+    /// constant (one immediate load per native word).
+    pub fn const_mul_cost(&self, bits: u32) -> u32 {
+        self.mul_cost(bits) + self.add_cost(bits)
+    }
+
+    /// Cost of a shift-add network computing `plan.m · x` on `bits`-wide values: one adder per
+    /// step, the shifts of its operands, the final shift and negation.
+    pub fn shift_add_cost(&self, plan: &ShiftAddPlan, bits: u32) -> u32 {
+        let add = self.add_cost(bits);
+        let mut c = 0;
+        for s in &plan.steps {
+            // A shift of the input `x` by the same amount is shared between steps in practice;
+            // counting each keeps the model conservative.
+            c += add + self.shift_cost(bits, s.a_shift) + self.shift_cost(bits, s.b_shift);
+            if s.negate_a {
+                c += add;
+            }
+        }
+        c + self.shift_cost(bits, plan.final_shift) + if plan.negate { add } else { 0 }
+    }
+}
+
 impl Default for Target {
+    /// `rv32i`: a 32-bit core without a multiplier, so every constant gain becomes shift-add.
     fn default() -> Self {
-        Target::GENERIC32
+        Target::builtin().swap_remove(0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lower::shift_add;
+
+    #[test]
+    fn every_builtin_target_parses_and_is_named_after_its_file() {
+        for (name, text) in BUILTIN {
+            let t = Target::from_toml(text).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!(t.name, name);
+        }
+        assert_eq!(Target::default().name, "rv32i");
+    }
+
+    #[test]
+    fn bad_target_files_are_refused_with_the_field() {
+        let good = BUILTIN[2].1;
+        let e = Target::from_toml(&good.replace("word_bits = 8", "word_bits = 12")).unwrap_err();
+        assert!(e.contains("word_bits"), "{e}");
+        let e = Target::from_toml(&good.replace("kind = \"8x8\"", "kind = \"9x9\"")).unwrap_err();
+        assert!(e.contains("9x9"), "{e}");
+        let e = Target::from_toml(&format!("{good}\nbogus = 1\n")).unwrap_err();
+        assert!(e.contains("bogus"), "{e}");
+    }
+
+    /// The model's multiply costs against the instruction sequences compilers emit (counted
+    /// by hand from avr-gcc 7.3 `-Os` output and the ARM/RISC-V manuals).
+    #[test]
+    fn multiply_costs_follow_the_instruction_sequences() {
+        let t = |n: &str| Target::by_name(n).unwrap();
+        // AVR 16×16→16: three MULs and two 8-bit adds (≈ 10 cycles with moves).
+        assert_eq!(t("atmega328p").mul_cost(16), 3 * (2 + 2));
+        // AVR 32×32→32 is __mulsi3: 10 partial products and a call.
+        assert!(t("atmega328p").mul_cost(32) > 40);
+        // One MULS on Cortex-M0; UMULL + two MLA on M4 for a 64-bit product.
+        assert_eq!(t("cortex-m0").mul_cost(32), 1);
+        assert_eq!(t("cortex-m4").mul_cost(64), 3 * (1 + 2));
+        // __aeabi_lmul on M0: 16-bit limbs, ten partial products and a call.
+        assert!(t("cortex-m0").mul_cost(64) > 30);
+        // __mulsi3 on RV32I: a 32-iteration loop.
+        assert!(t("rv32i").mul_cost(32) > 100);
+    }
+
+    #[test]
+    fn shift_costs_pay_per_bit_without_a_barrel_shifter() {
+        let avr = Target::by_name("atmega328p").unwrap();
+        assert_eq!(avr.shift_cost(32, 3), 12); // 4 bytes × 3 bits
+        assert_eq!(avr.shift_cost(32, 8), 4); // byte moves
+        assert_eq!(avr.shift_cost(16, 9), 2 + 2);
+        let m0 = Target::by_name("cortex-m0").unwrap();
+        assert_eq!(m0.shift_cost(32, 17), 1);
+        assert_eq!(m0.shift_cost(64, 17), 4);
+    }
+
+    #[test]
+    fn the_choice_depends_on_the_target() {
+        // x · 0.9375 = (x << 4) − x, one adder: a 32-bit value.
+        let p = shift_add::best(15);
+        let cost = |n: &str| {
+            let t = Target::by_name(n).unwrap();
+            (t.shift_add_cost(&p, 32), t.mul_cost(32))
+        };
+        let (sa, mul) = cost("atmega328p");
+        assert!(sa < mul, "AVR: shift-add {sa} vs mul {mul}");
+        let (sa, mul) = cost("cortex-m0");
+        assert!(sa > mul, "M0: shift-add {sa} vs MULS {mul}");
+        let (sa, mul) = cost("cortex-m0-slowmul");
+        assert!(sa < mul, "slow M0: shift-add {sa} vs MULS {mul}");
+        let (sa, mul) = cost("rv32i");
+        assert!(sa < mul, "RV32I: shift-add {sa} vs __mulsi3 {mul}");
     }
 }

@@ -1,0 +1,454 @@
+//! Emits the fixed-point controller as a C99 `.h`/`.c` pair.
+//!
+//! The C reads the same plan as the Rust emitter, operation for operation, so the two compute
+//! the same raw integers. What C needs beyond Rust:
+//!
+//! * **No undefined behaviour.** Every intermediate's range is proved to fit its type, so no
+//!   signed overflow happens. A left shift of a negative value is undefined in C (C99
+//!   6.5.7p4), so `a << k` is emitted as a multiply by the constant `2^k`, which compilers
+//!   turn back into a shift (a power-of-two multiply is always a shift in GCC's and LLVM's
+//!   expanders); the result passes through `QLOOP_KEEP`, an empty `asm` that hides it from
+//!   the optimiser, so GCC cannot fold `x·4 + x` into `x·5`, a general multiply that is a
+//!   library call on AVR and slow-multiplier Cortex-M0. A right shift of a negative value is implementation-defined (6.5.7p5); GCC,
+//!   Clang and every compiler qloop targets shift arithmetically (GCC manual, "Integers
+//!   implementation"), and a file-scope check refuses to compile anywhere else.
+//! * **Integer promotion.** Every operation is written on operands of one type and its result
+//!   cast back to that type, so an `int16_t` sum on a 32-bit host (computed in `int`) or a
+//!   product on AVR (16-bit `int`) gives the value the plan proved.
+//! * **Only `<stdint.h>` and `<stdbool.h>`**: no division, no floating point, no libc call.
+//!
+//! Frama-C: `step` carries an ACSL contract (valid pointers, each state inside its
+//! saturation bounds on entry and on exit). Under `__FRAMAC__` the `.c` file also defines an
+//! analysis entry point, `NAME_eva_main`, which calls `step` once on every state in range and
+//! every raw input value, so `frama-c -eva -main NAME_eva_main` proves the step free of
+//! run-time errors for all of them.
+
+use crate::ir::{SigId, SigKind};
+use crate::lower::lir::{LStmt, Op, ValId};
+use crate::lower::Plan;
+use crate::qformat::IntTy;
+use std::fmt::Write;
+
+/// C99 keywords and the names `step` uses for its parameters: a spec name that collides gets
+/// a trailing underscore.
+const RESERVED: [&str; 40] = [
+    "auto", "break", "case", "char", "const", "continue", "default", "do", "double", "else",
+    "enum", "extern", "float", "for", "goto", "if", "inline", "int", "long", "register",
+    "restrict", "return", "short", "signed", "sizeof", "static", "struct", "switch", "typedef",
+    "union", "unsigned", "void", "volatile", "while", "bool", "true", "false", "self", "in", "out",
+];
+
+/// The header and source files of `plan`'s controller: `(NAME.h, NAME.c)`.
+pub fn files(plan: &Plan) -> (String, String) {
+    (header(plan), source(plan))
+}
+
+/// A spec name as a C identifier.
+pub fn ident(name: &str) -> String {
+    if RESERVED.contains(&name) {
+        format!("{name}_")
+    } else {
+        name.to_string()
+    }
+}
+
+/// `int16_t`, `uint32_t`, ...
+pub fn c_ty(t: IntTy) -> String {
+    format!("{}int{}_t", if t.signed { "" } else { "u" }, t.bits)
+}
+
+/// A constant of type `ty`: `((int32_t)-123)`, or `INT64_MIN` where the literal itself would
+/// not be a valid constant.
+pub fn c_lit(v: i128, ty: IntTy) -> String {
+    if ty.signed && v == ty.min() {
+        return format!("INT{}_MIN", ty.bits);
+    }
+    let suffix = if ty.signed { "" } else { "u" };
+    if v < 0 {
+        format!("(({})-{}{suffix})", c_ty(ty), v.unsigned_abs())
+    } else {
+        format!("(({}){v}{suffix})", c_ty(ty))
+    }
+}
+
+fn upper(plan: &Plan) -> String {
+    plan.prog.name.to_uppercase()
+}
+
+fn ids(plan: &Plan, k: SigKind) -> Vec<SigId> {
+    plan.prog.ids_of(k).collect()
+}
+
+/// A comment block: every line prefixed with ` * `.
+fn comment(text: &str) -> String {
+    let mut o = String::from("/*\n");
+    for l in text.lines() {
+        let l = l.replace("*/", "* /");
+        if l.is_empty() {
+            o.push_str(" *\n");
+        } else {
+            let _ = writeln!(o, " * {l}");
+        }
+    }
+    o.push_str(" */\n");
+    o
+}
+
+fn header(plan: &Plan) -> String {
+    let p = &plan.prog;
+    let (n, up) = (&p.name, upper(plan));
+    let mut o = comment(&super::module_doc(plan, "fixed-point controller, C99"));
+    let _ = write!(
+        o,
+        "\n#ifndef QLOOP_{up}_H\n#define QLOOP_{up}_H\n\n#include <stdint.h>\n\n\
+         #ifdef __cplusplus\nextern \"C\" {{\n#endif\n\n"
+    );
+    let _ = writeln!(o, "/* Sample period in microseconds. */");
+    let _ = writeln!(
+        o,
+        "#define {up}_PERIOD_US {}UL\n",
+        (p.period * 1e6).round() as u64
+    );
+    let _ = writeln!(
+        o,
+        "/* Fixed-point formats (raw = value * 2^FRAC) and raw saturation bounds. */"
+    );
+    for k in [SigKind::Input, SigKind::State, SigKind::Output] {
+        for id in ids(plan, k) {
+            let s = p.sig(id);
+            let q = plan.format(id);
+            let su = s.name.to_uppercase();
+            let _ = writeln!(o, "#define {up}_{su}_FRAC {}", q.frac);
+            if let Some((lo, hi)) = plan.raw_bounds(id) {
+                let _ = writeln!(o, "#define {up}_{su}_MIN {}", c_lit(lo, q.ty));
+                let _ = writeln!(o, "#define {up}_{su}_MAX {}", c_lit(hi, q.ty));
+            }
+        }
+    }
+    let _ = writeln!(
+        o,
+        "\n/* Compiled-in parameters (physical values; changing one means regenerating). */"
+    );
+    for c in p.constants.iter().filter(|c| c.is_param) {
+        let _ = writeln!(
+            o,
+            "#define {up}_PARAM_{} {:e} /* {} */",
+            c.name.to_uppercase(),
+            c.value,
+            c.unit.as_deref().unwrap_or("")
+        );
+    }
+    let strukt = |o: &mut String, kind: SigKind, what: &str, doc: &str| {
+        let _ = writeln!(o, "\n/* {doc} */\ntypedef struct {n}_{what} {{");
+        let fields = ids(plan, kind);
+        for id in &fields {
+            let s = p.sig(*id);
+            let sm = &plan.summary[id.0];
+            let _ = writeln!(
+                o,
+                "    {} {}; /* {}: [{}, {}] {}, {} */",
+                c_ty(plan.format(*id).ty),
+                ident(&s.name),
+                super::kind_name(kind),
+                crate::report::g(sm.range.0),
+                crate::report::g(sm.range.1),
+                s.unit.as_deref().unwrap_or(""),
+                sm.format
+            );
+        }
+        if fields.is_empty() {
+            // C99 has no empty structs.
+            let _ = writeln!(o, "    uint8_t unused_;");
+        }
+        let _ = writeln!(o, "}} {n}_{what};");
+    };
+    strukt(
+        &mut o,
+        SigKind::Input,
+        "inputs",
+        "Raw inputs of one step; each is clamped to its declared range inside step.",
+    );
+    strukt(
+        &mut o,
+        SigKind::Output,
+        "outputs",
+        "Raw outputs of one step.",
+    );
+    strukt(
+        &mut o,
+        SigKind::State,
+        "state",
+        "The controller's states (raw); keep one per controller instance.",
+    );
+    let _ = write!(
+        o,
+        "\n/* Sets the declared initial state. */\nvoid {n}_init({n}_state *self);\n\n\
+         /* One control period: reads the inputs, updates the state, writes the outputs.\n\
+         \x20* States must lie within their _MIN/_MAX bounds (init and step keep them there). */\n\
+         void {n}_step({n}_state *self, const {n}_inputs *in, {n}_outputs *out);\n\n\
+         #ifdef __cplusplus\n}}\n#endif\n\n#endif /* QLOOP_{up}_H */\n"
+    );
+    o
+}
+
+fn source(plan: &Plan) -> String {
+    let p = &plan.prog;
+    let (n, up) = (&p.name, upper(plan));
+    let states = ids(plan, SigKind::State);
+    let outputs = ids(plan, SigKind::Output);
+    let inputs = ids(plan, SigKind::Input);
+    let mut o = comment(&format!(
+        "{n}: fixed-point step, generated by qloop {} (target `{}`). Do not edit.\n\
+         No division, no floating point, no library calls; every intermediate's range is\n\
+         proved to fit its type. See the header for formats.",
+        env!("CARGO_PKG_VERSION"),
+        plan.target.name
+    ));
+    let _ = write!(
+        o,
+        "\n#include \"{n}.h\"\n#include <stdbool.h>\n\n\
+         /* Right shifts of negative values must be arithmetic (floor); C leaves it to the\n\
+         \x20* implementation, GCC and Clang define it so. Refuse to compile otherwise. */\n\
+         typedef char qloop_{n}_arithmetic_shift_check[((-8) >> 1) == -4 ? 1 : -1];\n\n\
+         /* GCC and Clang fold `(x << 2) + x` back into `x * 5`, which on a core without a fast\n\
+         \x20* multiplier is a library call (__mulhisi3, __aeabi_lmul). QLOOP_KEEP hides a\n\
+         \x20* shifted term from that folding: an empty asm that claims to modify it. It emits\n\
+         \x20* no instruction. Other compilers (and Frama-C) see a no-op. */\n\
+         #ifndef QLOOP_KEEP\n\
+         #if defined(__GNUC__) && !defined(__FRAMAC__)\n\
+         #define QLOOP_KEEP(x) __asm__(\"\" : \"+r\"(x))\n\
+         #else\n\
+         #define QLOOP_KEEP(x) ((void)(x))\n\
+         #endif\n\
+         #endif\n\n"
+    );
+    let _ = writeln!(o, "void {n}_init({n}_state *self)\n{{");
+    for id in &states {
+        let q = plan.format(*id);
+        let _ = writeln!(
+            o,
+            "    self->{} = {};",
+            ident(&p.sig(*id).name),
+            c_lit(plan.raw_init(*id), q.ty)
+        );
+    }
+    if states.is_empty() {
+        let _ = writeln!(o, "    self->unused_ = 0u;");
+    }
+    let _ = writeln!(o, "}}\n");
+
+    // ACSL contract: pointers valid and apart, states within bounds before and after.
+    let mut acsl = String::from(
+        "/*@ requires \\valid(self) && \\valid_read(in) && \\valid(out);\n    \
+         requires \\separated(self, in, out);\n",
+    );
+    let mut ens = String::new();
+    for id in &states {
+        if plan.raw_bounds(*id).is_some() {
+            let su = p.sig(*id).name.to_uppercase();
+            let f = ident(&p.sig(*id).name);
+            let _ = writeln!(
+                acsl,
+                "    requires {up}_{su}_MIN <= self->{f} <= {up}_{su}_MAX;"
+            );
+            let _ = writeln!(
+                ens,
+                "    ensures {up}_{su}_MIN <= self->{f} <= {up}_{su}_MAX;"
+            );
+        }
+    }
+    for id in &outputs {
+        if plan.raw_bounds(*id).is_some() {
+            let su = p.sig(*id).name.to_uppercase();
+            let f = ident(&p.sig(*id).name);
+            let _ = writeln!(
+                ens,
+                "    ensures {up}_{su}_MIN <= out->{f} <= {up}_{su}_MAX;"
+            );
+        }
+    }
+    let _ = write!(o, "{acsl}    assigns *self, *out;\n{ens}*/\n");
+    let _ = writeln!(
+        o,
+        "void {n}_step({n}_state *self, const {n}_inputs *in, {n}_outputs *out)\n{{"
+    );
+    for id in &states {
+        let f = ident(&p.sig(*id).name);
+        let _ = writeln!(o, "    {} {f} = self->{f};", c_ty(plan.format(*id).ty));
+    }
+    for id in &outputs {
+        let f = ident(&p.sig(*id).name);
+        let _ = writeln!(o, "    {} {f} = 0;", c_ty(plan.format(*id).ty));
+    }
+    block(plan, &plan.body, 1, &mut o);
+    for id in &states {
+        let f = ident(&p.sig(*id).name);
+        let _ = writeln!(o, "    self->{f} = {f};");
+    }
+    for id in &outputs {
+        let f = ident(&p.sig(*id).name);
+        let _ = writeln!(o, "    out->{f} = {f};");
+    }
+    if outputs.is_empty() {
+        let _ = writeln!(o, "    out->unused_ = 0u;");
+    }
+    let _ = writeln!(o, "}}");
+
+    // Frama-C Eva entry point: every in-range state, every raw input.
+    let _ = write!(
+        o,
+        "\n#ifdef __FRAMAC__\n#include \"__fc_builtin.h\"\n\n\
+         /* Analysis entry for `frama-c -eva -main {n}_eva_main`: one step from every state\n\
+         \x20* inside its bounds and every raw input value. */\n\
+         void {n}_eva_main(void)\n{{\n    {n}_state s;\n    {n}_inputs i;\n    {n}_outputs o;\n"
+    );
+    for id in &states {
+        let q = plan.format(*id);
+        let (lo, hi) = plan.raw_bounds(*id).unwrap_or((q.ty.min(), q.ty.max()));
+        let _ = writeln!(
+            o,
+            "    s.{} = ({}){};",
+            ident(&p.sig(*id).name),
+            c_ty(q.ty),
+            eva_interval(q.ty, lo, hi)
+        );
+    }
+    if states.is_empty() {
+        let _ = writeln!(o, "    s.unused_ = 0u;");
+    }
+    for id in &inputs {
+        let q = plan.format(*id);
+        let _ = writeln!(
+            o,
+            "    i.{} = ({}){};",
+            ident(&p.sig(*id).name),
+            c_ty(q.ty),
+            eva_interval(q.ty, q.ty.min(), q.ty.max())
+        );
+    }
+    if inputs.is_empty() {
+        let _ = writeln!(o, "    i.unused_ = 0u;");
+    }
+    let _ = writeln!(o, "    {n}_step(&s, &i, &o);\n}}\n#endif /* __FRAMAC__ */");
+    o
+}
+
+/// A Frama-C builtin call giving any value in `[lo, hi]` of a `ty` value (through `long long`,
+/// which holds every type qloop stores, whatever the width of `int`).
+fn eva_interval(ty: IntTy, lo: i128, hi: i128) -> String {
+    if !ty.signed && ty.bits == 64 {
+        let u = IntTy::unsigned(64);
+        return format!(
+            "Frama_C_unsigned_long_long_interval({}, {})",
+            c_lit(lo, u),
+            c_lit(hi, u)
+        );
+    }
+    let w = IntTy::signed(64);
+    format!(
+        "Frama_C_long_long_interval({}, {})",
+        c_lit(lo, w),
+        c_lit(hi, w)
+    )
+}
+
+fn indent(depth: usize) -> String {
+    "    ".repeat(depth)
+}
+
+fn block(plan: &Plan, stmts: &[LStmt], depth: usize, o: &mut String) {
+    let ind = indent(depth);
+    for s in stmts {
+        match s {
+            LStmt::Def(id) => {
+                let v = plan.val(*id);
+                let ty = if v.boolean {
+                    "bool".to_string()
+                } else {
+                    c_ty(v.ty)
+                };
+                let nm = name(plan, *id);
+                if matches!(v.op, Op::Shl(..)) {
+                    // Shifted terms stay opaque, so the compiler cannot fold a shift-add
+                    // network back into a multiply (see QLOOP_KEEP).
+                    let _ = writeln!(o, "{ind}{ty} {nm} = {};", expr(plan, *id));
+                    let _ = writeln!(o, "{ind}QLOOP_KEEP({nm});");
+                } else {
+                    let _ = writeln!(o, "{ind}const {ty} {nm} = {};", expr(plan, *id));
+                }
+            }
+            LStmt::Store(sig, id) => {
+                let _ = writeln!(
+                    o,
+                    "{ind}{} = {};",
+                    ident(&plan.prog.sig(*sig).name),
+                    name(plan, *id)
+                );
+            }
+            LStmt::If(c, t, e) => {
+                let _ = writeln!(o, "{ind}if ({}) {{", name(plan, *c));
+                block(plan, t, depth + 1, o);
+                if e.is_empty() {
+                    let _ = writeln!(o, "{ind}}}");
+                } else {
+                    let _ = writeln!(o, "{ind}}} else {{");
+                    block(plan, e, depth + 1, o);
+                    let _ = writeln!(o, "{ind}}}");
+                }
+            }
+        }
+    }
+}
+
+/// The C name of a value: the user's `let` name, or `_N`.
+fn name(plan: &Plan, id: ValId) -> String {
+    match &plan.val(id).name {
+        Some(n) => ident(n),
+        None => format!("_{}", id.0),
+    }
+}
+
+/// The expression defining value `id`; the result always has the value's own type.
+fn expr(plan: &Plan, id: ValId) -> String {
+    let v = plan.val(id);
+    let t = c_ty(v.ty);
+    let n = |x: &ValId| name(plan, *x);
+    match &v.op {
+        Op::Input(s) => format!("in->{}", ident(&plan.prog.sig(*s).name)),
+        Op::Load(s) => ident(&plan.prog.sig(*s).name),
+        Op::Const(c) => c_lit(*c, v.ty),
+        Op::Cast(a) => format!("({t}){}", n(a)),
+        Op::Add(a, b) => format!("({t})({} + {})", n(a), n(b)),
+        Op::Sub(a, b) => format!("({t})({} - {})", n(a), n(b)),
+        Op::Neg(a) => format!("({t})(-{})", n(a)),
+        Op::Shl(a, k) => {
+            // a · 2^k: no left shift of a possibly negative value (UB in C). Compilers emit a
+            // power-of-two multiply as a shift; QLOOP_KEEP on the result stops them from
+            // folding it into a neighbouring add as a general multiply.
+            let scale = 1i128 << k;
+            if v.ty.holds(scale, scale) {
+                format!("({t})({} * {})", n(a), c_lit(scale, v.ty))
+            } else {
+                // 2^k does not fit the type: only a = 0, or a = -1 with the result at the
+                // type's minimum, is in range; compute one size up.
+                let w = IntTy::signed(64);
+                format!("({t})(({}){} * {})", c_ty(w), n(a), c_lit(scale, w))
+            }
+        }
+        Op::Shr(a, k) => format!("({t})({} >> {k})", n(a)),
+        Op::Mul(a, b) => format!("({t})({} * {})", n(a), n(b)),
+        Op::Min(a, b) => {
+            let (a, b) = (n(a), n(b));
+            format!("(({a} < {b}) ? {a} : {b})")
+        }
+        Op::Max(a, b) => {
+            let (a, b) = (n(a), n(b));
+            format!("(({a} > {b}) ? {a} : {b})")
+        }
+        Op::Select(c, a, b) => format!("({} ? {} : {})", n(c), n(a), n(b)),
+        Op::Cmp(op, a, b) => format!("({} {} {})", n(a), op.symbol(), n(b)),
+        Op::And(a, b) => format!("({} && {})", n(a), n(b)),
+        Op::Or(a, b) => format!("({} || {})", n(a), n(b)),
+        Op::Not(a) => format!("(!{})", n(a)),
+    }
+}
