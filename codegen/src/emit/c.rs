@@ -368,7 +368,7 @@ fn block(plan: &Plan, stmts: &[LStmt], depth: usize, o: &mut String) {
                     c_ty(v.ty)
                 };
                 let nm = name(plan, *id);
-                if matches!(v.op, Op::Shl(..)) {
+                if v.network {
                     // Shifted terms stay opaque, so the compiler cannot fold a shift-add
                     // network back into a multiply (see QLOOP_KEEP).
                     let _ = writeln!(o, "{ind}{ty} {nm} = {};", expr(plan, *id));

@@ -2,6 +2,7 @@
 //! text.
 
 pub mod c;
+pub mod c_float;
 pub mod kani;
 pub mod reference;
 pub mod rust;

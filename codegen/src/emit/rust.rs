@@ -186,6 +186,11 @@ fn block(plan: &Plan, stmts: &[LStmt]) -> TokenStream {
             let e = op_expr(plan, *id);
             if v.boolean {
                 quote! { let #name: bool = #e; }
+            } else if v.network {
+                // A shift-add term: opaque to LLVM, which would otherwise fold the network
+                // back into a multiply (`__muldi3`/`__aeabi_lmul` on 32-bit cores).
+                let ty = int_ty(v.ty);
+                quote! { let #name: #ty = ::core::hint::black_box(#e); }
             } else {
                 let ty = int_ty(v.ty);
                 quote! { let #name: #ty = #e; }

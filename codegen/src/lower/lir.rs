@@ -35,6 +35,10 @@ pub struct Val {
     /// The interval `[lo, hi]` is trusted from a user claim (`#[range]`, `#[unsaturated]`)
     /// rather than derived from the operands: only a whole-program proof can discharge it.
     pub claimed: bool,
+    /// A shifted term of a shift-add network. Emitters keep it opaque to the optimiser, so
+    /// that GCC or LLVM cannot fold the network back into a multiply (a library call on
+    /// cores without a fast multiplier).
+    pub network: bool,
     /// Spec line of the statement this value was lowered from (0 if unknown).
     pub line: usize,
 }

@@ -390,6 +390,7 @@ impl<'a> Lowerer<'a> {
             name: None,
             boolean: false,
             claimed: false,
+            network: false,
             line: self.line,
         });
         out.push(LStmt::Def(id));
@@ -1071,7 +1072,9 @@ impl<'a> Lowerer<'a> {
                     return v;
                 }
                 let (lo, hi) = range(c << sh);
-                lw.push_fit(Op::Shl(v, sh), ty, xv.frac, lo, hi, 0.0, out)
+                let t = lw.push_fit(Op::Shl(v, sh), ty, xv.frac, lo, hi, 0.0, out);
+                lw.vals[t.0].network = true;
+                t
             };
             let mut ta = term(av, ac, st.a_shift, self, out);
             let tb = term(bv, bc, st.b_shift, self, out);
