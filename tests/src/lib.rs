@@ -41,3 +41,60 @@ pub fn sig(plan: &Plan, name: &str) -> SigId {
             .unwrap_or_else(|| panic!("no signal {name}")),
     )
 }
+
+/// The compiled plan of a seed spec for a built-in target.
+pub fn plan_for(stem: &str, target: &str) -> Plan {
+    let src = std::fs::read_to_string(specs_dir().join(format!("{stem}.qloop"))).unwrap();
+    let t = Target::by_name(target).unwrap_or_else(|| panic!("no target {target}"));
+    qloop::compile_str(&src, &t).unwrap_or_else(|e| panic!("{stem}: {e}"))
+}
+
+/// Seed spec stems, sorted.
+pub fn spec_stems() -> Vec<String> {
+    all_specs().into_iter().map(|(s, _)| s).collect()
+}
+
+/// An external tool (compiler, simulator, analyser) on `PATH`. Missing, it skips the calling
+/// test with a note, unless `QLOOP_REQUIRE_TOOLS` is set (as `.ci/run` does, after installing
+/// them), in which case the test fails.
+pub fn tool(name: &str) -> Option<PathBuf> {
+    let found = std::env::var_os("PATH").and_then(|paths| {
+        std::env::split_paths(&paths)
+            .map(|d| d.join(name))
+            .find(|p| p.is_file())
+    });
+    if found.is_none() {
+        if std::env::var_os("QLOOP_REQUIRE_TOOLS").is_some() {
+            panic!("`{name}` is required (QLOOP_REQUIRE_TOOLS is set) but not on PATH");
+        }
+        eprintln!("skipping: `{name}` is not installed");
+    }
+    found
+}
+
+/// A fresh scratch directory under the target directory, named after the test.
+pub fn scratch(name: &str) -> PathBuf {
+    let d = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../target/qloop-tests")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Runs a command, panicking with its output if it fails; returns stdout.
+pub fn run(cmd: &mut std::process::Command) -> String {
+    let o = cmd
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run {cmd:?}: {e}"));
+    let (out, err) = (
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    );
+    assert!(
+        o.status.success(),
+        "{cmd:?} failed ({}):\n{out}\n{err}",
+        o.status
+    );
+    out
+}

@@ -104,10 +104,17 @@ pub fn module(plan: &Plan) -> TokenStream {
         quote! { self.#name as i64, }
     });
 
+    let keep = if plan.vals.iter().any(|v| v.network) {
+        keep_fn()
+    } else {
+        quote! {}
+    };
     quote! {
         #[doc = #doc]
         #[allow(#allows)]
         pub mod #modname {
+            #keep
+
             /// Inputs of one step. Each is clamped to its declared range on entry.
             #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
             pub struct Inputs { #(#in_fields)* }
@@ -178,6 +185,26 @@ pub fn module(plan: &Plan) -> TokenStream {
     }
 }
 
+/// `qloop_keep(x)`: hides a shift-add term from LLVM where its re-formed multiply would be a library
+/// call or a slow instruction: ARMv6-M (`__aeabi_lmul` for 64 bits, a 32-cycle `MULS` on the
+/// small-multiplier M0) and RV32 without M (`__mulsi3`, `__muldi3`). Elsewhere the multiply
+/// LLVM prefers is single-cycle and `qloop_keep` is the identity, so it costs nothing.
+fn keep_fn() -> TokenStream {
+    quote! {
+        /// Keeps a shift-add term opaque where a multiply would be a library call (see the
+        /// qloop README, "Object code").
+        #[inline(always)]
+        fn qloop_keep<T>(x: T) -> T {
+            #[cfg(any(
+                all(target_arch = "arm", not(target_feature = "v7")),
+                all(target_arch = "riscv32", not(target_feature = "m"))
+            ))]
+            let x = ::core::hint::black_box(x);
+            x
+        }
+    }
+}
+
 fn block(plan: &Plan, stmts: &[LStmt]) -> TokenStream {
     let parts = stmts.iter().map(|s| match s {
         LStmt::Def(id) => {
@@ -187,10 +214,9 @@ fn block(plan: &Plan, stmts: &[LStmt]) -> TokenStream {
             if v.boolean {
                 quote! { let #name: bool = #e; }
             } else if v.network {
-                // A shift-add term: opaque to LLVM, which would otherwise fold the network
-                // back into a multiply (`__muldi3`/`__aeabi_lmul` on 32-bit cores).
+                // A shift-add term: see `qloop_keep`.
                 let ty = int_ty(v.ty);
-                quote! { let #name: #ty = ::core::hint::black_box(#e); }
+                quote! { let #name: #ty = qloop_keep(#e); }
             } else {
                 let ty = int_ty(v.ty);
                 quote! { let #name: #ty = #e; }

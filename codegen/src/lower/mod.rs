@@ -1038,7 +1038,7 @@ impl<'a> Lowerer<'a> {
         let sa_cost = self.target.shift_add_cost(&plan, bits);
         let hw_cost = self.target.const_mul_cost(bits);
         let (plo, phi) = Bin::Mul.range((xv.lo, xv.hi), (m, m));
-        let hw = plan.adders() > 0 && hw_cost < sa_cost;
+        let hw = plan.adders() > 0 && (hw_cost < sa_cost || self.target.force_multiply);
         self.mults.push(MulNote {
             constant: c,
             name,

@@ -38,6 +38,10 @@ pub struct Target {
     /// Compilers, disassembler and simulator for this target (optional).
     #[serde(default)]
     pub toolchain: Toolchain,
+    /// Use the multiplier for every constant that is not a power of two, whatever the costs
+    /// (the `plain_mul` baseline of `qloop bench`); not settable from a target file.
+    #[serde(skip)]
+    pub force_multiply: bool,
 }
 
 /// The multiplier: its operand/result shape and cycles per instruction.
@@ -210,6 +214,15 @@ impl Target {
                 })
             })
             .collect()
+    }
+
+    /// This target with every non-power-of-two constant multiply on the multiplier: the
+    /// "plain `*`" baseline that shift-add is measured against.
+    pub fn always_multiply(&self) -> Target {
+        Target {
+            force_multiply: true,
+            ..self.clone()
+        }
     }
 
     /// Names of the built-in targets.

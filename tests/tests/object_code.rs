@@ -1,0 +1,279 @@
+//! Object-code checks: the plan survives the compiler. For every seed spec and target, the
+//! generated routine is compiled by the target's real compiler and disassembled:
+//!
+//! * no division instruction or call (`__divmodsi4`, `__udivmodhi4`, `__aeabi_idiv`,
+//!   `__divsi3`, `sdiv`, `udiv`, RISC-V `div`/`rem`, ...);
+//! * no multiply where the plan chose shift-add. The C is built a second time with every
+//!   multiply the plan *did* choose replaced by a call to an opaque external function; the
+//!   object must then contain no multiply instruction and no multiply helper call at all, so
+//!   any multiply left would be a shift-add network the compiler folded back. The number of
+//!   opaque calls equals the plan's multiply count, which checks the replacement itself.
+//! * Rust (`qloop-verified`, built by rustc for thumbv6m, thumbv7em, riscv32i and
+//!   riscv32imc): each `step` has no division, and on ARMv6-M and RV32I (where a re-formed
+//!   multiply is a library call) exactly as many multiply instructions or calls as the plan
+//!   has multiplies. On thumbv7em and riscv32imc LLVM may re-form a network into a 1-2 cycle
+//!   `mul`; the cost model accepts that (see the README, "Object code").
+
+use qloop::report::op_counts;
+use qloop::Plan;
+use qloop_tests::{plan_for, run, scratch, spec_stems, tool};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// Division helpers and instructions of every target.
+const DIV: [&str; 12] = [
+    "__divmodsi4",
+    "__udivmodsi4",
+    "__divmodhi4",
+    "__udivmodhi4",
+    "__aeabi_idiv",
+    "__aeabi_uidiv",
+    "__aeabi_ldivmod",
+    "__divsi3",
+    "__udivsi3",
+    "__divdi3",
+    "__moddi3",
+    "__umoddi3",
+];
+
+/// Is this disassembly line a division (instruction or call)?
+fn is_div(line: &str) -> bool {
+    let m = mnemonic(line);
+    DIV.iter().any(|d| line.contains(d))
+        || matches!(
+            m.as_str(),
+            "sdiv" | "udiv" | "div" | "divu" | "rem" | "remu" | "idiv"
+        )
+}
+
+/// Is this disassembly line a multiply (instruction or helper call)?
+fn is_mul(line: &str) -> bool {
+    let m = mnemonic(line);
+    let call = line.contains("__mul")
+        || line.contains("__umul")
+        || line.contains("__usmul")
+        || line.contains("__aeabi_lmul");
+    call || m.starts_with("mul")
+        || matches!(
+            m.as_str(),
+            "smull" | "umull" | "smlal" | "umlal" | "mla" | "mls" | "fmul" | "fmuls" | "fmulsu"
+        )
+}
+
+/// The mnemonic of an objdump line without raw bytes (`  1c:\tmuls\tr3, r1` → `muls`).
+fn mnemonic(line: &str) -> String {
+    line.split('\t')
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .unwrap_or("")
+        .to_lowercase()
+}
+
+/// Disassembly of the functions whose names contain `needle`, with relocations.
+fn functions(objdump: &Path, obj: &Path, needle: &str) -> Vec<String> {
+    let out = run(Command::new(objdump)
+        .args(["-dr", "--demangle", "--no-show-raw-insn"])
+        .arg(obj));
+    let mut lines = Vec::new();
+    let mut inside = false;
+    for l in out.lines() {
+        if l.ends_with(">:") {
+            inside = l.contains(needle);
+            continue;
+        }
+        if inside && !l.trim().is_empty() {
+            lines.push(l.to_string());
+        }
+    }
+    lines
+}
+
+/// Replaces each multiply the plan chose, `(T)(a * b)` with two value operands, by a call
+/// to an opaque function; returns the new source and the number of replacements.
+fn opaque_multiplies(src: &str) -> (String, usize) {
+    let mut out = String::new();
+    let mut n = 0;
+    for line in src.lines() {
+        // `const int32_t _11 = (int32_t)(_9 * _10);` — both operands are names, never a
+        // literal (power-of-two scalings are `* ((int32_t)4096)`).
+        let replaced = line.split_once(" = (").and_then(|(lhs, rhs)| {
+            let (ty, rest) = rhs.split_once(")(")?;
+            let inner = rest.strip_suffix(");")?;
+            let (a, b) = inner.split_once(" * ")?;
+            let ident = |s: &str| s.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+            (ident(a) && ident(b))
+                .then(|| format!("{lhs} = ({ty})qloop_opaque_mul((int64_t){a}, (int64_t){b});"))
+        });
+        match replaced {
+            Some(r) => {
+                n += 1;
+                out.push_str(&r);
+            }
+            None => out.push_str(line),
+        }
+        out.push('\n');
+    }
+    let decl = "#include <stdbool.h>\nextern int64_t qloop_opaque_mul(int64_t a, int64_t b);\n";
+    (out.replacen("#include <stdbool.h>\n", decl, 1), n)
+}
+
+fn compile_c(cc: &Path, flags: &[String], c: &Path, o: &Path) {
+    run(Command::new(cc)
+        .args(["-std=c99", "-Wall", "-Wextra", "-Werror", "-c"])
+        .args(flags)
+        .arg(c)
+        .arg("-o")
+        .arg(o));
+}
+
+fn check_c(target: &str) {
+    let t = qloop::Target::by_name(target).unwrap();
+    let (Some(cc), Some(od)) = (
+        t.toolchain.cc.as_deref().and_then(tool),
+        t.toolchain.objdump.as_deref().and_then(tool),
+    ) else {
+        return;
+    };
+    for stem in spec_stems() {
+        let plan: Plan = plan_for(&stem, target);
+        let dir = scratch(&format!("obj-c-{target}-{stem}"));
+        let (h, c) = qloop::gen_c(&plan);
+        std::fs::write(dir.join(format!("{stem}.h")), &h).unwrap();
+        let step = format!("{stem}_step");
+
+        // As emitted: no division anywhere in step.
+        let src = dir.join(format!("{stem}.c"));
+        std::fs::write(&src, &c).unwrap();
+        let obj = dir.join("step.o");
+        compile_c(&cc, &t.toolchain.cflags, &src, &obj);
+        let asm = functions(&od, &obj, &step);
+        assert!(!asm.is_empty(), "{stem}/{target}: no {step} in the object");
+        let divs: Vec<&String> = asm.iter().filter(|l| is_div(l)).collect();
+        assert!(
+            divs.is_empty(),
+            "{stem}/{target}: division in step: {divs:?}"
+        );
+
+        // Planned multiplies made opaque: nothing may multiply.
+        let (opaque, n) = opaque_multiplies(&c);
+        assert_eq!(
+            n,
+            op_counts(&plan).mul,
+            "{stem}/{target}: replaced multiplies vs the plan's count"
+        );
+        let src2 = dir.join(format!("{stem}_opaque.c"));
+        std::fs::write(&src2, opaque).unwrap();
+        let obj2 = dir.join("step_opaque.o");
+        compile_c(&cc, &t.toolchain.cflags, &src2, &obj2);
+        let asm2 = functions(&od, &obj2, &step);
+        let muls: Vec<&String> = asm2.iter().filter(|l| is_mul(l)).collect();
+        assert!(
+            muls.is_empty(),
+            "{stem}/{target}: the compiler turned a shift-add network into a multiply: {muls:?}"
+        );
+        let calls = asm2
+            .iter()
+            .filter(|l| l.contains("qloop_opaque_mul"))
+            .count();
+        assert!(
+            calls >= n.min(1),
+            "{stem}/{target}: expected calls to the opaque multiply"
+        );
+    }
+}
+
+#[test]
+fn c_for_atmega328p_has_no_division_and_no_unplanned_multiply() {
+    check_c("atmega328p");
+}
+
+#[test]
+fn c_for_cortex_m0_has_no_division_and_no_unplanned_multiply() {
+    check_c("cortex-m0");
+    check_c("cortex-m0-slowmul");
+}
+
+#[test]
+fn c_for_cortex_m4_has_no_division_and_no_unplanned_multiply() {
+    check_c("cortex-m4");
+}
+
+/// `llvm-objdump` of the rustup toolchain (component llvm-tools).
+fn llvm_objdump() -> Option<PathBuf> {
+    let sysroot = run(Command::new("rustc").args(["--print", "sysroot"]));
+    let host = run(Command::new("rustc").args(["--print", "host-tuple"]));
+    let p = PathBuf::from(sysroot.trim())
+        .join("lib/rustlib")
+        .join(host.trim())
+        .join("bin/llvm-objdump");
+    if p.is_file() {
+        return Some(p);
+    }
+    if std::env::var_os("QLOOP_REQUIRE_TOOLS").is_some() {
+        panic!("llvm-objdump missing: rustup component add llvm-tools");
+    }
+    eprintln!("skipping: llvm-objdump missing (rustup component add llvm-tools)");
+    None
+}
+
+fn installed(triple: &str) -> bool {
+    let list = run(Command::new("rustup").args(["target", "list", "--installed"]));
+    let ok = list.lines().any(|l| l.trim() == triple);
+    if !ok {
+        if std::env::var_os("QLOOP_REQUIRE_TOOLS").is_some() {
+            panic!("rust target {triple} missing: rustup target add {triple}");
+        }
+        eprintln!("skipping {triple}: rustup target add {triple}");
+    }
+    ok
+}
+
+#[test]
+fn rust_step_has_no_division_and_no_unplanned_library_multiply() {
+    let Some(od) = llvm_objdump() else { return };
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    // (triple, whether a re-formed multiply would be a library call or slow instruction)
+    for (triple, strict) in [
+        ("thumbv6m-none-eabi", true),
+        ("riscv32i-unknown-none-elf", true),
+        ("thumbv7em-none-eabihf", false),
+        ("riscv32imc-unknown-none-elf", false),
+    ] {
+        if !installed(triple) {
+            continue;
+        }
+        let tdir = root.join("target/qloop-tests/rust-objects");
+        run(Command::new(env!("CARGO"))
+            .current_dir(&root)
+            .args([
+                "build",
+                "-q",
+                "-p",
+                "qloop-verified",
+                "--release",
+                "--target",
+                triple,
+            ])
+            .arg("--target-dir")
+            .arg(&tdir));
+        let rlib = tdir.join(triple).join("release/libqloop_verified.rlib");
+        for stem in spec_stems() {
+            let asm = functions(
+                &od,
+                &rlib,
+                &format!("qloop_verified::{stem}::Controller::step"),
+            );
+            assert!(!asm.is_empty(), "{stem}/{triple}: step not found");
+            let divs: Vec<&String> = asm.iter().filter(|l| is_div(l)).collect();
+            assert!(divs.is_empty(), "{stem}/{triple}: division: {divs:?}");
+            if strict {
+                let muls = asm.iter().filter(|l| is_mul(l)).count();
+                let planned = op_counts(&qloop_tests::plan(&stem)).mul;
+                assert_eq!(
+                    muls, planned,
+                    "{stem}/{triple}: {muls} multiplies in the object, {planned} in the plan"
+                );
+            }
+        }
+    }
+}
