@@ -158,6 +158,31 @@ enum Cmd {
         #[arg(long, default_value = "qloop-demo")]
         out: PathBuf,
     },
+    /// Measure cost per controller step on a target: qloop's C against the same spec with
+    /// plain multiplies, in `float`, and (koren_masory_1981) the direct-division baselines.
+    ///
+    /// Compiles each variant with the target's C compiler and runs it in a simulator:
+    /// simavr on atmega328p (exact cycles), qemu-system-arm on Cortex-M (instructions
+    /// executed, -icount). Prints cost per step, ratios to qloop and the goals.
+    Bench {
+        /// The spec file (*.qloop).
+        spec: PathBuf,
+        /// Target: atmega328p, cortex-m0, cortex-m0-slowmul, cortex-m4 (or a target file).
+        #[arg(long)]
+        target: String,
+        /// Also write the results as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Controller steps per variant.
+        #[arg(long, default_value_t = 200, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+        steps: u32,
+        /// Exit 1 if a goal is not met (default: report only).
+        #[arg(long)]
+        check_goals: bool,
+        /// Build in this directory and keep the files (default: a temporary one, removed).
+        #[arg(long)]
+        work_dir: Option<PathBuf>,
+    },
     /// List the built-in cost-model targets.
     Targets,
 }
@@ -311,6 +336,25 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 report.as_deref(),
             )
         }
+        Cmd::Bench {
+            spec,
+            target: target_name,
+            json,
+            steps,
+            check_goals,
+            work_dir,
+        } => {
+            let (plan, _) = load(&spec, &target_name)?;
+            let plain = plan_for(&spec, &plan.target.always_multiply())?;
+            cli::bench::bench(&cli::bench::BenchArgs {
+                plan: &plan,
+                plain: &plain,
+                steps: steps as usize,
+                json: json.as_deref(),
+                check_goals,
+                work_dir: work_dir.as_deref(),
+            })
+        }
         Cmd::Demo { out } => demo(&out),
         Cmd::Targets => {
             print!("{}", qloop::report::targets_table(&Target::builtin()));
@@ -452,6 +496,19 @@ fn load(path: &Path, target_name: &str) -> Result<(Plan, String), Fail> {
         Fail(2)
     })?;
     Ok((plan, name))
+}
+
+/// The spec at `path` planned for `t` (for `bench`'s second target).
+fn plan_for(path: &Path, t: &Target) -> Result<Plan, Fail> {
+    let name = path.display().to_string();
+    let src = std::fs::read_to_string(path).map_err(|e| {
+        eprintln!("error: cannot read `{name}`: {e}");
+        Fail(2)
+    })?;
+    qloop::compile_str(&src, t).map_err(|d| {
+        report(&d, &name, &src);
+        Fail(2)
+    })
 }
 
 /// Renders a diagnostic with file:line:col and a caret (miette).

@@ -1,0 +1,297 @@
+//! `qloop bench`: the AVR run end to end (needs avr-gcc, avr-libc, simavr and libsimavr-dev;
+//! skipped with a note without them unless QLOOP_REQUIRE_TOOLS is set), and the errors that
+//! need no tools.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+fn qloop(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_qloop"))
+        .args(args)
+        .output()
+        .expect("run qloop")
+}
+
+fn spec(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../verified/specs")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+fn runs(prog: &str, args: &[&str]) -> bool {
+    Command::new(prog)
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+/// What is missing for the AVR bench, if anything.
+fn missing_avr_tools() -> Vec<&'static str> {
+    let mut m = Vec::new();
+    if !runs("avr-gcc", &["--version"]) {
+        m.push("avr-gcc (gcc-avr, avr-libc)");
+    }
+    if !runs("cc", &["--version"]) {
+        m.push("a host cc");
+    }
+    let header = Path::new("/usr/include/simavr/sim_avr.h").is_file()
+        || runs("pkg-config", &["--exists", "simavr"]);
+    if !header {
+        m.push("libsimavr (simavr, libsimavr-dev)");
+    }
+    m
+}
+
+/// Whether to run a tool-dependent test: skip with a note, or fail under
+/// QLOOP_REQUIRE_TOOLS.
+fn tools_present(missing: &[&str]) -> bool {
+    if missing.is_empty() {
+        return true;
+    }
+    assert!(
+        std::env::var_os("QLOOP_REQUIRE_TOOLS").is_none(),
+        "QLOOP_REQUIRE_TOOLS is set but these are missing: {}",
+        missing.join(", ")
+    );
+    eprintln!("skipping: missing {}", missing.join(", "));
+    false
+}
+
+#[test]
+fn bench_koren_masory_on_atmega328p() {
+    if !tools_present(&missing_avr_tools()) {
+        return;
+    }
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("bench-avr");
+    std::fs::create_dir_all(&dir).expect("tmp dir");
+    let json = dir.join("bench.json");
+    let _ = std::fs::remove_file(&json);
+    let o = qloop(&[
+        "bench",
+        &spec("koren_masory_1981.qloop"),
+        "--target",
+        "atmega328p",
+        "--json",
+        json.to_str().expect("utf-8 path"),
+        "--steps",
+        "50",
+    ]);
+    let (out, err) = (text(&o.stdout), text(&o.stderr));
+    assert_eq!(o.status.code(), Some(0), "stdout:\n{out}\nstderr:\n{err}");
+    for v in ["qloop", "plain_mul", "float", "div_float", "div_int32"] {
+        assert!(
+            out.lines().any(|l| l.split_whitespace().next() == Some(v)),
+            "no row for {v}:\n{out}"
+        );
+        assert!(
+            err.contains(&format!("{v}: compiling")) && err.contains(&format!("{v}: simulating")),
+            "no progress lines for {v}:\n{err}"
+        );
+    }
+    assert!(
+        out.contains("plain_mul == qloop: identical raw outputs on all 50 steps"),
+        "{out}"
+    );
+    assert!(out.contains("goals:"), "{out}");
+
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("json written"))
+            .expect("valid JSON");
+    assert_eq!(j["target"], "atmega328p", "{j}");
+    assert_eq!(j["unit"], "cycles", "{j}");
+    assert_eq!(j["steps"], 50, "{j}");
+    assert_eq!(j["qloop_equals_plain_mul"], true, "{j}");
+    let step = j["step"].as_object().expect("`step` is an object");
+    let mut keys: Vec<&str> = step.keys().map(String::as_str).collect();
+    keys.sort_unstable();
+    assert_eq!(
+        keys,
+        ["div_float", "div_int32", "float", "plain_mul", "qloop"],
+        "{j}"
+    );
+    for (k, v) in step {
+        let n = v
+            .as_f64()
+            .unwrap_or_else(|| panic!("step.{k} is not a number: {j}"));
+        assert!(n > 0.0, "step.{k} = {n}: {j}");
+        assert!(j["min"][k].as_u64().is_some_and(|m| m > 0), "min.{k}: {j}");
+    }
+    // The same arithmetic costs the same: nothing in this spec is a non-power-of-two
+    // constant multiply, so plain_mul is the same code.
+    assert_eq!(step["qloop"], step["plain_mul"], "{j}");
+
+    // --check-goals: exit 1 exactly when a goal is not met.
+    let all_met = j["goals"]
+        .as_array()
+        .expect("goals")
+        .iter()
+        .all(|g| g["met"] == true);
+    let o = qloop(&[
+        "bench",
+        &spec("koren_masory_1981.qloop"),
+        "--target",
+        "atmega328p",
+        "--steps",
+        "50",
+        "--check-goals",
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(if all_met { 0 } else { 1 }),
+        "{}",
+        text(&o.stderr)
+    );
+}
+
+#[test]
+fn bench_koren_masory_on_cortex_m0_under_qemu() {
+    let mut missing = Vec::new();
+    if !runs("arm-none-eabi-gcc", &["--version"]) {
+        missing.push("arm-none-eabi-gcc (gcc-arm-none-eabi, libnewlib-arm-none-eabi)");
+    }
+    if !runs("qemu-system-arm", &["--version"]) {
+        missing.push("qemu-system-arm");
+    }
+    if !tools_present(&missing) {
+        return;
+    }
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("bench-m0");
+    std::fs::create_dir_all(&dir).expect("tmp dir");
+    let json = dir.join("bench.json");
+    let o = qloop(&[
+        "bench",
+        &spec("koren_masory_1981.qloop"),
+        "--target",
+        "cortex-m0",
+        "--json",
+        json.to_str().expect("utf-8 path"),
+        "--steps",
+        "30",
+    ]);
+    let out = text(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{out}\n{}", text(&o.stderr));
+    assert!(
+        out.contains("instructions executed per step under QEMU"),
+        "{out}"
+    );
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("json written"))
+            .expect("valid JSON");
+    assert_eq!(j["unit"], "instructions", "{j}");
+    assert_eq!(j["qloop_equals_plain_mul"], true, "{j}");
+    for v in ["qloop", "plain_mul", "float", "div_float", "div_int32"] {
+        assert!(j["step"][v].as_f64().is_some_and(|n| n > 0.0), "{v}: {j}");
+    }
+}
+
+#[test]
+fn bench_other_spec_reports_division_baselines_as_na() {
+    if !tools_present(&missing_avr_tools()) {
+        return;
+    }
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("bench-avr-acc");
+    std::fs::create_dir_all(&dir).expect("tmp dir");
+    let json = dir.join("bench.json");
+    let o = qloop(&[
+        "bench",
+        &spec("acc_fixed_gain.qloop"),
+        "--target",
+        "atmega328p",
+        "--json",
+        json.to_str().expect("utf-8 path"),
+        "--steps",
+        "20",
+    ]);
+    let out = text(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{out}\n{}", text(&o.stderr));
+    assert!(
+        out.lines()
+            .any(|l| l.starts_with("div_float") && l.contains("n/a")),
+        "{out}"
+    );
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("json written"))
+            .expect("valid JSON");
+    assert!(
+        j["step"]["div_float"].is_null() && j["step"]["div_int32"].is_null(),
+        "{j}"
+    );
+    assert!(j["step"]["qloop"].as_f64().is_some_and(|n| n > 0.0), "{j}");
+}
+
+#[test]
+fn bench_rejects_an_unknown_target() {
+    let o = qloop(&[
+        "bench",
+        &spec("koren_masory_1981.qloop"),
+        "--target",
+        "pdp11",
+    ]);
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("unknown target `pdp11`"), "{err}");
+    assert!(
+        err.contains("atmega328p"),
+        "lists the built-in targets: {err}"
+    );
+}
+
+#[test]
+fn bench_rejects_targets_it_cannot_build_or_run() {
+    for (t, what) in [
+        ("rv32i", "has no C compiler"),
+        ("rv32imc", "has no C compiler"),
+        ("host", "names no simulator"),
+    ] {
+        let o = qloop(&["bench", &spec("koren_masory_1981.qloop"), "--target", t]);
+        let err = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{t}: {err}");
+        assert!(err.contains(&format!("target `{t}` {what}")), "{t}: {err}");
+        assert!(err.contains("cortex-m4"), "names what works: {err}");
+        assert!(o.stdout.is_empty(), "{t}: {}", text(&o.stdout));
+    }
+}
+
+#[test]
+fn bench_names_a_compiler_that_is_not_installed() {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("bench-nocc");
+    std::fs::create_dir_all(&dir).expect("tmp dir");
+    let toml = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../targets/atmega328p.toml"),
+    )
+    .expect("target file")
+    .replace("cc = \"avr-gcc\"", "cc = \"qloop-no-such-cc\"");
+    let t = dir.join("nocc.toml");
+    std::fs::write(&t, toml).expect("write target");
+    let o = qloop(&[
+        "bench",
+        &spec("koren_masory_1981.qloop"),
+        "--target",
+        t.to_str().expect("utf-8 path"),
+    ]);
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("`qloop-no-such-cc` cannot be run"), "{err}");
+    assert!(err.contains("apt-get install gcc-avr"), "{err}");
+}
+
+#[test]
+fn bench_rejects_zero_steps() {
+    let o = qloop(&[
+        "bench",
+        &spec("koren_masory_1981.qloop"),
+        "--target",
+        "atmega328p",
+        "--steps",
+        "0",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+}
