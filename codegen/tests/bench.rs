@@ -2,27 +2,10 @@
 //! skipped with a note without them unless QLOOP_REQUIRE_TOOLS is set), and the errors that
 //! need no tools.
 
+mod common;
+use common::{qloop, spec, text};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
-
-fn qloop(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_qloop"))
-        .args(args)
-        .output()
-        .expect("run qloop")
-}
-
-fn spec(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../verified/specs")
-        .join(name)
-        .display()
-        .to_string()
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
-}
 
 fn runs(prog: &str, args: &[&str]) -> bool {
     Command::new(prog)
@@ -65,25 +48,40 @@ fn tools_present(missing: &[&str]) -> bool {
     false
 }
 
-#[test]
-fn bench_koren_masory_on_atmega328p() {
-    if !tools_present(&missing_avr_tools()) {
-        return;
-    }
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("bench-avr");
+/// Runs `qloop bench SPEC --target T --steps N --json DIR/bench.json` in a fresh directory under
+/// the test's tmp dir; returns the process output, and the JSON if it was written.
+fn bench(
+    spec_file: &str,
+    target: &str,
+    steps: &str,
+    dir: &str,
+) -> (Output, Option<serde_json::Value>) {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(dir);
     std::fs::create_dir_all(&dir).expect("tmp dir");
     let json = dir.join("bench.json");
     let _ = std::fs::remove_file(&json);
     let o = qloop(&[
         "bench",
-        &spec("koren_masory_1981.qloop"),
+        &spec(spec_file),
         "--target",
-        "atmega328p",
+        target,
         "--json",
         json.to_str().expect("utf-8 path"),
         "--steps",
-        "50",
+        steps,
     ]);
+    let j = std::fs::read_to_string(&json)
+        .ok()
+        .map(|t| serde_json::from_str(&t).expect("valid JSON"));
+    (o, j)
+}
+
+#[test]
+fn bench_koren_masory_on_atmega328p() {
+    if !tools_present(&missing_avr_tools()) {
+        return;
+    }
+    let (o, j) = bench("koren_masory_1981.qloop", "atmega328p", "50", "bench-avr");
     let (out, err) = (text(&o.stdout), text(&o.stderr));
     assert_eq!(o.status.code(), Some(0), "stdout:\n{out}\nstderr:\n{err}");
     for v in ["qloop", "plain_mul", "float", "div_float", "div_int32"] {
@@ -102,9 +100,7 @@ fn bench_koren_masory_on_atmega328p() {
     );
     assert!(out.contains("goals:"), "{out}");
 
-    let j: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).expect("json written"))
-            .expect("valid JSON");
+    let j = j.expect("json written");
     assert_eq!(j["target"], "atmega328p", "{j}");
     assert_eq!(j["unit"], "cycles", "{j}");
     assert_eq!(j["steps"], 50, "{j}");
@@ -163,28 +159,14 @@ fn bench_koren_masory_on_cortex_m0_under_qemu() {
     if !tools_present(&missing) {
         return;
     }
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("bench-m0");
-    std::fs::create_dir_all(&dir).expect("tmp dir");
-    let json = dir.join("bench.json");
-    let o = qloop(&[
-        "bench",
-        &spec("koren_masory_1981.qloop"),
-        "--target",
-        "cortex-m0",
-        "--json",
-        json.to_str().expect("utf-8 path"),
-        "--steps",
-        "30",
-    ]);
+    let (o, j) = bench("koren_masory_1981.qloop", "cortex-m0", "30", "bench-m0");
     let out = text(&o.stdout);
     assert_eq!(o.status.code(), Some(0), "{out}\n{}", text(&o.stderr));
     assert!(
         out.contains("instructions executed per step under QEMU"),
         "{out}"
     );
-    let j: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).expect("json written"))
-            .expect("valid JSON");
+    let j = j.expect("json written");
     assert_eq!(j["unit"], "instructions", "{j}");
     assert_eq!(j["qloop_equals_plain_mul"], true, "{j}");
     for v in ["qloop", "plain_mul", "float", "div_float", "div_int32"] {
@@ -197,19 +179,7 @@ fn bench_other_spec_reports_division_baselines_as_na() {
     if !tools_present(&missing_avr_tools()) {
         return;
     }
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("bench-avr-acc");
-    std::fs::create_dir_all(&dir).expect("tmp dir");
-    let json = dir.join("bench.json");
-    let o = qloop(&[
-        "bench",
-        &spec("acc_fixed_gain.qloop"),
-        "--target",
-        "atmega328p",
-        "--json",
-        json.to_str().expect("utf-8 path"),
-        "--steps",
-        "20",
-    ]);
+    let (o, j) = bench("acc_fixed_gain.qloop", "atmega328p", "20", "bench-avr-acc");
     let out = text(&o.stdout);
     assert_eq!(o.status.code(), Some(0), "{out}\n{}", text(&o.stderr));
     assert!(
@@ -217,9 +187,7 @@ fn bench_other_spec_reports_division_baselines_as_na() {
             .any(|l| l.starts_with("div_float") && l.contains("n/a")),
         "{out}"
     );
-    let j: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).expect("json written"))
-            .expect("valid JSON");
+    let j = j.expect("json written");
     assert!(
         j["step"]["div_float"].is_null() && j["step"]["div_int32"].is_null(),
         "{j}"

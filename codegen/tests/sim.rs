@@ -2,29 +2,11 @@
 //! the spec must behave bit for bit like the same spec compiled by `controller!` into
 //! `qloop-verified`, and bad requests must fail with a clear message, never a panic.
 
+mod common;
+use common::{qloop, spec, text};
 use qloop_plant::turning::{scenario_named, Turning, TurningParams};
 use qloop_plant::{fixed_controller, reference_controller, run, RunConfig};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn qloop(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_qloop"))
-        .args(args)
-        .output()
-        .expect("run qloop")
-}
-
-fn spec(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../verified/specs")
-        .join(name)
-        .display()
-        .to_string()
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
-}
 
 fn tmp(name: &str) -> PathBuf {
     std::env::temp_dir().join(format!("qloop-{name}-{}", std::process::id()))
