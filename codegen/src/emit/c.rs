@@ -15,6 +15,11 @@
 //! * **Integer promotion.** Every operation is written on operands of one type and its result
 //!   cast back to that type, so an `int16_t` sum on a 32-bit host (computed in `int`) or a
 //!   product on AVR (16-bit `int`) gives the value the plan proved.
+//! * **Shifts on cores without a barrel shifter** (AVR): GCC shifts a multi-byte value one bit
+//!   per loop iteration, so `x >> 14` on an `int32_t` costs about 100 cycles. A shift by
+//!   `8q + r` is written as a whole-byte shift (register moves) and an `r`-bit one, or, where
+//!   the proved range leaves room, as an `8 − r`-bit shift the other way and `q + 1` bytes
+//!   (`(x · 4) >> 16` for `x >> 14`); see `byte_split`. Exact either way.
 //! * **Only `<stdint.h>` and `<stdbool.h>`**: no division, no floating point, no libc call.
 //!
 //! Frama-C: `step` carries an ACSL contract (valid pointers, each state inside its
@@ -368,7 +373,18 @@ fn block(plan: &Plan, stmts: &[LStmt], depth: usize, o: &mut String) {
                     c_ty(v.ty)
                 };
                 let nm = name(plan, *id);
-                if v.network {
+                if let Some(split) = byte_split(plan, *id) {
+                    // Without a barrel shifter, a constant shift becomes whole-byte moves plus
+                    // a short shift; the opaque middle value stops GCC re-joining the two.
+                    let tmp = format!("qloop_{}", id.0);
+                    let _ = writeln!(o, "{ind}{} {tmp} = {};", c_ty(split.mid_ty), split.first);
+                    let _ = writeln!(o, "{ind}QLOOP_KEEP({tmp});");
+                    let qual = if v.network { "" } else { "const " };
+                    let _ = writeln!(o, "{ind}{qual}{ty} {nm} = {};", (split.second)(&tmp));
+                    if v.network {
+                        let _ = writeln!(o, "{ind}QLOOP_KEEP({nm});");
+                    }
+                } else if v.network {
                     // Shifted terms stay opaque, so the compiler cannot fold a shift-add
                     // network back into a multiply (see QLOOP_KEEP).
                     let _ = writeln!(o, "{ind}{ty} {nm} = {};", expr(plan, *id));
@@ -397,6 +413,85 @@ fn block(plan: &Plan, stmts: &[LStmt], depth: usize, o: &mut String) {
                 }
             }
         }
+    }
+}
+
+/// A constant shift written as two shifts: one by whole bytes, one by fewer than 8 bits.
+struct ByteSplit {
+    /// Type of the middle value.
+    mid_ty: IntTy,
+    /// Expression of the middle value.
+    first: String,
+    /// The final expression, given the middle value's name.
+    second: Box<dyn Fn(&str) -> String>,
+}
+
+/// On a target without a barrel shifter (AVR), GCC compiles a constant shift of a multi-byte
+/// value as a loop of one-bit shifts over all its bytes: `x >> 14` on an `int32_t` is 14
+/// iterations of 7 cycles. Whole-byte shifts are register moves. So a shift by `k = 8q + r`
+/// (0 < r < 8) is written as a byte shift and an `r`-bit shift, or, when the operand's proved
+/// range leaves room, as an `8 − r`-bit shift the other way and `q + 1` bytes:
+///
+/// * `a >> k` = `(a >> 8q) >> r`, or `(a · 2^(8−r)) >> 8(q+1)` (exact: floor division by
+///   `2^k` either way);
+/// * `a · 2^k` = `(a · 2^8q) · 2^r`, or `(a · 2^8(q+1)) >> (8−r)` (exact: the low bits
+///   shifted out are zero).
+///
+/// The up-shifted value must fit the type (checked against the proved interval, so no
+/// overflow and no UB). Returns `None` where the plain shift is as cheap: barrel shifters,
+/// single-word values, and shifts that are already whole bytes or under one byte with no
+/// room to round up.
+fn byte_split(plan: &Plan, id: ValId) -> Option<ByteSplit> {
+    let t = &plan.target;
+    let v = plan.val(id);
+    let (a, k, left) = match v.op {
+        Op::Shr(a, k) => (a, k, false),
+        Op::Shl(a, k) => (a, k, true),
+        _ => return None,
+    };
+    let byte = t.word_bits;
+    if t.shifter.barrel || v.ty.bits <= byte || k % byte == 0 {
+        return None;
+    }
+    let av = plan.val(a);
+    let (q, r) = (k / byte, k % byte);
+    let up = byte - r;
+    // `a · 2^n` fits the type (a's interval is proved; the shifted value is exact).
+    let fits = |n: u32| n + 1 < v.ty.bits && v.ty.holds(av.lo << n, av.hi << n);
+    let ty = v.ty;
+    let tn = c_ty(ty);
+    let an = name(plan, a);
+    let mul = |n: u32| format!("({tn})({an} * {})", c_lit(1i128 << n, ty));
+    if up < r && fits(if left { byte * (q + 1) } else { up }) {
+        let (first, keep) = if left {
+            (mul(byte * (q + 1)), up)
+        } else {
+            (mul(up), byte * (q + 1))
+        };
+        let tn = tn.clone();
+        return Some(ByteSplit {
+            mid_ty: ty,
+            first,
+            second: Box::new(move |m| format!("({tn})({m} >> {keep})")),
+        });
+    }
+    if q == 0 || (left && !fits(byte * q)) {
+        return None;
+    }
+    let tn2 = tn.clone();
+    if left {
+        let lit = c_lit(1i128 << r, ty);
+        Some(ByteSplit {
+            mid_ty: ty,
+            first: mul(byte * q),
+            second: Box::new(move |m| format!("({tn2})({m} * {lit})")),
+        })
+    } else {
+        Some(ByteSplit {
+            mid_ty: ty,
+            first: format!("({tn})({an} >> {})", byte * q),
+            second: Box::new(move |m| format!("({tn2})({m} >> {r})")),
+        })
     }
 }
 

@@ -1036,7 +1036,11 @@ impl<'a> Lowerer<'a> {
         };
         let bits = ty.bits;
         let sa_cost = self.target.shift_add_cost(&plan, bits);
-        let hw_cost = self.target.const_mul_cost(bits);
+        // Both factors as the compiler sees them: x sign-extended from its own type, m as
+        // a constant of the narrowest C type (at least `int`) that holds it.
+        let m_bits = (129 - m.unsigned_abs().leading_zeros()).max(self.target.min_work_bits());
+        let operand_bits = xv.ty.bits.max(m_bits.next_power_of_two());
+        let hw_cost = self.target.const_mul_cost(bits, operand_bits);
         let (plo, phi) = Bin::Mul.range((xv.lo, xv.hi), (m, m));
         let hw = plan.adders() > 0 && (hw_cost < sa_cost || self.target.force_multiply);
         self.mults.push(MulNote {

@@ -116,6 +116,11 @@ pub struct Shifter {
     pub barrel: bool,
     /// Cycles per shift instruction (barrel), or per bit position per word (no barrel).
     pub cycles: u32,
+    /// No barrel shifter: extra cycles per bit position when the compiler shifts in a loop
+    /// (avr-gcc at `-Os` shifts a multi-byte value by more than one bit in a loop, with a
+    /// `DEC` and a taken `BRNE` per bit, plus an `LDI` of the counter). 0: unrolled.
+    #[serde(default)]
+    pub loop_cycles: u32,
 }
 
 /// Cycle costs of add, load/store and a library call.
@@ -130,6 +135,11 @@ pub struct Costs {
     pub store: u32,
     /// Call and return of a library routine (a software multiply).
     pub call: u32,
+    /// Adds and shifts of values at least this wide are library calls too (avr-gcc 5.4:
+    /// `__adddi3`, `__ashldi3`, `__ashrdi3` for 64-bit values; a shift is then a loop over
+    /// whole bytes and one over bits, each step touching every byte). 0: never.
+    #[serde(default)]
+    pub libcall_bits: u32,
 }
 
 /// Widths of C's integer types on the target.
@@ -249,9 +259,20 @@ impl Target {
         bits.div_ceil(self.word_bits).max(1)
     }
 
+    /// Whether `bits`-wide adds and shifts are library calls.
+    fn libcall(&self, bits: u32) -> bool {
+        self.costs.libcall_bits > 0 && bits >= self.costs.libcall_bits
+    }
+
     /// Cost of an add/sub/compare of `bits` width (carry chain across words).
     pub fn add_cost(&self, bits: u32) -> u32 {
-        self.costs.add * self.words(bits)
+        let chain = self.costs.add * self.words(bits);
+        chain
+            + if self.libcall(bits) {
+                self.costs.call
+            } else {
+                0
+            }
     }
 
     /// Cost of a constant shift by `k` of a `bits`-wide value. A barrel shifter does one word
@@ -265,9 +286,21 @@ impl Target {
         let w = self.words(bits);
         if self.shifter.barrel {
             self.shifter.cycles * if w == 1 { 1 } else { 3 * w - 2 }
+        } else if self.libcall(bits) {
+            let steps = k / self.word_bits + k % self.word_bits;
+            self.costs.call + (self.shifter.cycles * w + self.shifter.loop_cycles) * steps
         } else {
+            // The C emitter writes the whole-word part and the rest as two shifts
+            // (`emit::c`), so the words move and only `k mod word` bit positions loop.
             let moves = if k >= self.word_bits { w } else { 0 };
-            self.shifter.cycles * w * (k % self.word_bits) + moves
+            let r = k % self.word_bits;
+            let per_bit = self.shifter.cycles * w;
+            let bits_cost = if r <= 1 || self.shifter.loop_cycles == 0 {
+                per_bit * r
+            } else {
+                (per_bit + self.shifter.loop_cycles) * r + 1
+            };
+            bits_cost + moves
         }
     }
 
@@ -281,6 +314,14 @@ impl Target {
     /// limbs make it a library call (`__mulsi3`, `__aeabi_lmul`). Without a
     /// multiplier the product is a shift-and-add loop over `bits` iterations.
     pub fn mul_cost(&self, bits: u32) -> u32 {
+        self.widening_mul_cost(bits, bits)
+    }
+
+    /// Cost of a `bits`-wide product of two operands that each fit `operand_bits` (a
+    /// sign-extended narrower value). A widening multiplier then needs only the operands'
+    /// limbs: avr-gcc multiplies a 16-bit value widened to 32 bits by `__mulhisi3`, four
+    /// `MUL`s, not `__mulsi3`'s ten.
+    pub fn widening_mul_cost(&self, bits: u32, operand_bits: u32) -> u32 {
         let kind = self.multiplier.kind;
         if kind == MulKind::None {
             let per_iter = self.add_cost(bits) * 2 + self.shift_cost(bits, 1) * 2 + 2;
@@ -294,16 +335,22 @@ impl Target {
         } else {
             bits.div_ceil(m / 2)
         };
-        let pp = n * (n + 1) / 2;
+        let na = if kind.widening() {
+            operand_bits.min(bits).div_ceil(m).max(1)
+        } else {
+            n
+        };
+        let pp = (n * (n + 1) / 2).min(na * na);
         let limb_add = self.add_cost(m);
         let body = pp * (self.multiplier.cycles + if pp > 1 { 2 * limb_add } else { 0 });
         body + if n > 2 { self.costs.call } else { 0 }
     }
 
-    /// Cost of multiplying by a constant on the multiplier: the multiply and loading the
-    /// constant (one immediate load per native word).
-    pub fn const_mul_cost(&self, bits: u32) -> u32 {
-        self.mul_cost(bits) + self.add_cost(bits)
+    /// Cost of multiplying a value that fits `operand_bits` by a constant on the multiplier,
+    /// with a `bits`-wide product: the multiply and loading the constant (one immediate load
+    /// per native word).
+    pub fn const_mul_cost(&self, bits: u32, operand_bits: u32) -> u32 {
+        self.widening_mul_cost(bits, operand_bits) + self.costs.add * self.words(bits)
     }
 
     /// Cost of a shift-add network computing `plan.m · x` on `bits`-wide values: one adder per
@@ -376,12 +423,30 @@ mod tests {
     #[test]
     fn shift_costs_pay_per_bit_without_a_barrel_shifter() {
         let avr = Target::by_name("atmega328p").unwrap();
-        assert_eq!(avr.shift_cost(32, 3), 12); // 4 bytes × 3 bits
+        // 3 bits: a loop of 3 × (4 bytes + DEC + BRNE) plus the counter's LDI (avr-gcc -Os).
+        assert_eq!(avr.shift_cost(32, 3), 3 * (4 + 3) + 1);
+        assert_eq!(avr.shift_cost(32, 1), 4); // one bit: unrolled
+        assert_eq!(avr.shift_cost(32, 17), 4 + 4); // two bytes move, then one bit
+                                                   // 64-bit: __ashldi3, a loop per byte and per bit over 8 bytes.
+        assert_eq!(avr.shift_cost(64, 17), 8 + (8 + 3) * (2 + 1));
+        assert_eq!(avr.add_cost(64), 8 + 8); // __adddi3
+        assert_eq!(avr.add_cost(32), 4);
         assert_eq!(avr.shift_cost(32, 8), 4); // byte moves
         assert_eq!(avr.shift_cost(16, 9), 2 + 2);
         let m0 = Target::by_name("cortex-m0").unwrap();
         assert_eq!(m0.shift_cost(32, 17), 1);
         assert_eq!(m0.shift_cost(64, 17), 4);
+    }
+
+    #[test]
+    fn a_widened_narrow_operand_needs_fewer_partial_products() {
+        let avr = Target::by_name("atmega328p").unwrap();
+        // 16×16→32 (__mulhisi3): 4 MULs, each with two byte adds, and the call.
+        assert_eq!(avr.widening_mul_cost(32, 16), 4 * (2 + 2) + 8);
+        // 32×32→32 (__mulsi3): the low 10 partial products of 4×4 limbs.
+        assert_eq!(avr.mul_cost(32), 10 * (2 + 2) + 8);
+        let m4 = Target::by_name("cortex-m4").unwrap();
+        assert_eq!(m4.widening_mul_cost(32, 16), m4.mul_cost(32));
     }
 
     #[test]
