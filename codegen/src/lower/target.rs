@@ -140,6 +140,12 @@ pub struct Costs {
     /// whole bytes and one over bits, each step touching every byte). 0: never.
     #[serde(default)]
     pub libcall_bits: u32,
+    /// Cycles per native word of the temporary each shift-add step keeps live. On AVR, GCC
+    /// gives a network's shifted terms call-saved registers, which `step` must save and
+    /// restore (`PUSH` + `POP`, 4 cycles per byte); a multiply routine works in fixed
+    /// call-clobbered registers instead. 0 where registers are plentiful.
+    #[serde(default)]
+    pub temp: u32,
 }
 
 /// Widths of C's integer types on the target.
@@ -362,6 +368,7 @@ impl Target {
             // A shift of the input `x` by the same amount is shared between steps in practice;
             // counting each keeps the model conservative.
             c += add + self.shift_cost(bits, s.a_shift) + self.shift_cost(bits, s.b_shift);
+            c += self.costs.temp * self.words(bits);
             if s.negate_a {
                 c += add;
             }
@@ -457,8 +464,17 @@ mod tests {
             let t = Target::by_name(n).unwrap();
             (t.shift_add_cost(&p, 32), t.mul_cost(32))
         };
+        // On AVR a 4-bit shift of 4 bytes is a loop, and the term costs saved registers: a
+        // full 32-bit x · 15 goes to __mulsi3, but x · 257 = (x << 8) + x (a byte move) stays
+        // shift-add.
         let (sa, mul) = cost("atmega328p");
-        assert!(sa < mul, "AVR: shift-add {sa} vs mul {mul}");
+        assert!(sa > mul, "AVR x·15: shift-add {sa} vs __mulsi3 {mul}");
+        let avr = Target::by_name("atmega328p").unwrap();
+        let (sa, mul) = (
+            avr.shift_add_cost(&shift_add::best(257), 32),
+            avr.mul_cost(32),
+        );
+        assert!(sa < mul, "AVR x·257: shift-add {sa} vs __mulsi3 {mul}");
         let (sa, mul) = cost("cortex-m0");
         assert!(sa > mul, "M0: shift-add {sa} vs MULS {mul}");
         let (sa, mul) = cost("cortex-m0-slowmul");
