@@ -1,7 +1,7 @@
 //! The C99 output (`qloop gen --lang c`) of every seed spec:
 //! * compiles without a warning (`-std=c99 -pedantic -Wall -Wextra -Werror`, and
-//!   `-Wconversion` on the host) with the host gcc, avr-gcc (atmega328p) and
-//!   arm-none-eabi-gcc (Cortex-M0 and M4);
+//!   `-Wconversion` on the host) with the host gcc, avr-gcc (atmega328p),
+//!   arm-none-eabi-gcc (Cortex-M0 and M4) and riscv64-unknown-elf-gcc (RV32I and RV32IMC);
 //! * computes bit for bit what the Rust output computes: the C generated for each target,
 //!   built by the host gcc with UBSan (any signed overflow, bad shift or bad conversion
 //!   aborts), against the `controller!` modules of `qloop-verified` over long random
@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
 /// The targets whose C is checked, with the C compiler that builds it for real.
-const TARGETS: [(&str, &str, &[&str]); 4] = [
+const TARGETS: [(&str, &str, &[&str]); 6] = [
     ("host", "gcc", &["-O2", "-Wconversion"]),
     ("atmega328p", "avr-gcc", &["-mmcu=atmega328p", "-Os"]),
     (
@@ -34,6 +34,16 @@ const TARGETS: [(&str, &str, &[&str]); 4] = [
         "cortex-m4",
         "arm-none-eabi-gcc",
         &["-mcpu=cortex-m4", "-mthumb", "-Os"],
+    ),
+    (
+        "rv32i",
+        "riscv64-unknown-elf-gcc",
+        &["-march=rv32i", "-mabi=ilp32", "-Os", "-ffreestanding"],
+    ),
+    (
+        "rv32imc",
+        "riscv64-unknown-elf-gcc",
+        &["-march=rv32imc", "-mabi=ilp32", "-Os", "-ffreestanding"],
     ),
 ];
 

@@ -2,7 +2,7 @@
 //! generated routine is compiled by the target's real compiler and disassembled:
 //!
 //! * no division instruction or call (`__divmodsi4`, `__udivmodhi4`, `__aeabi_idiv`,
-//!   `__divsi3`, `sdiv`, `udiv`, RISC-V `div`/`rem`, ...);
+//!   `__divsi3`, `__modsi3`, `sdiv`, `udiv`, RISC-V `div`/`rem`, ...);
 //! * no multiply where the plan chose shift-add. The C is built a second time with every
 //!   multiply the plan *did* choose replaced by a call to an opaque external function; the
 //!   object must then contain no multiply instruction and no multiply helper call at all, so
@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// Division helpers and instructions of every target.
-const DIV: [&str; 12] = [
+const DIV: [&str; 16] = [
     "__divmodsi4",
     "__udivmodsi4",
     "__divmodhi4",
@@ -34,6 +34,10 @@ const DIV: [&str; 12] = [
     "__divdi3",
     "__moddi3",
     "__umoddi3",
+    "__modsi3",
+    "__umodsi3",
+    "__udivdi3",
+    "__divmoddi4",
 ];
 
 /// Is this disassembly line a division (instruction or call)?
@@ -78,7 +82,14 @@ fn functions(objdump: &Path, obj: &Path, needle: &str) -> Vec<String> {
     let mut inside = false;
     for l in out.lines() {
         if l.ends_with(">:") {
-            inside = l.contains(needle);
+            // GNU objdump for RISC-V lists the local labels of a function (`<.L3>:`) as
+            // symbols of their own: they stay part of the function.
+            let local = l
+                .rsplit_once('<')
+                .is_some_and(|(_, name)| name.starts_with(".L"));
+            if !local {
+                inside = l.contains(needle);
+            }
             continue;
         }
         if inside && !l.trim().is_empty() {
@@ -196,6 +207,14 @@ fn c_for_cortex_m0_has_no_division_and_no_unplanned_multiply() {
 #[test]
 fn c_for_cortex_m4_has_no_division_and_no_unplanned_multiply() {
     check_c("cortex-m4");
+}
+
+/// riscv64-unknown-elf-gcc for RV32I (multiplies are `__mulsi3`/`__muldi3` calls) and RV32IMC
+/// (`mul`/`mulh*`; `div`/`rem` exist and must not appear).
+#[test]
+fn c_for_rv32_has_no_division_and_no_unplanned_multiply() {
+    check_c("rv32i");
+    check_c("rv32imc");
 }
 
 /// `llvm-objdump` of the rustup toolchain (component llvm-tools).

@@ -25,6 +25,14 @@
 //!   after the call, then counts instructions (calibrated on a 64-`nop` function; the empty
 //!   bracket is subtracted). These are instructions executed, not cycles: QEMU models no
 //!   pipeline, wait states or multiplier latency.
+//! * RISC-V (`qemu_machine = "virt"`, a `riscv*` compiler): the ELF runs under
+//!   `qemu-system-riscv32 -M virt -bios none -icount shift=0` on a CPU with exactly the
+//!   extensions of the target's `-march` (`-cpu rv32,m=false,c=false,...` for RV32I, so a stray
+//!   `mul` traps); `minstret`, read before and after the call, counts instructions retired
+//!   (exact under `-icount`; calibrated on the same 64-`nop` function, the empty bracket
+//!   subtracted). Results are text lines on the 16550 UART, exit through the SiFive test
+//!   device. Multiplies and divides on RV32I are libgcc calls (`__mulsi3`, `__divsi3`), counted
+//!   instruction by instruction; again instructions, not cycles.
 
 use crate::Fail;
 use qloop::emit::{c as cemit, c_float};
@@ -85,13 +93,16 @@ enum Platform {
         flash: &'static str,
         ram: &'static str,
     },
+    /// qemu-system-riscv32 with `-icount`, instructions from `minstret`; the machine and the
+    /// `-cpu` model with the extensions of the target's `-march`.
+    Riscv { machine: String, cpu: String },
 }
 
 impl Platform {
     fn unit(&self) -> &'static str {
         match self {
             Platform::Avr => "cycles",
-            Platform::Qemu { .. } => "instructions",
+            Platform::Qemu { .. } | Platform::Riscv { .. } => "instructions",
         }
     }
 
@@ -106,13 +117,19 @@ impl Platform {
                 "instructions executed per step under QEMU (-M {machine}, -icount shift=10, \
                  SysTick-timed; includes the call, argument set-up and return; not cycles)"
             ),
+            Platform::Riscv { machine, cpu } => format!(
+                "instructions executed per step under QEMU (qemu-system-riscv32 -M {machine} \
+                 -cpu {cpu}, -icount, minstret-timed; includes the call, argument set-up and \
+                 return; not cycles)"
+            ),
         }
     }
 }
 
 /// Which platform measures `target`, or what its toolchain lacks.
 fn platform(t: &qloop::Target) -> Result<Platform, Fail> {
-    let supported = "atmega328p (simavr), cortex-m0, cortex-m0-slowmul and cortex-m4 (QEMU)";
+    let supported =
+        "atmega328p (simavr), cortex-m0, cortex-m0-slowmul, cortex-m4, rv32i and rv32imc (QEMU)";
     let Some(cc) = &t.toolchain.cc else {
         return Err(bad(format!(
             "target `{}` has no C compiler in its toolchain (`[toolchain] cc` in its target \
@@ -124,13 +141,16 @@ fn platform(t: &qloop::Target) -> Result<Platform, Fail> {
         return Ok(Platform::Avr);
     }
     if let Some(m) = &t.toolchain.qemu_machine {
+        if cc.contains("riscv") || m == "virt" {
+            return riscv_platform(t, cc, m);
+        }
         let (flash, ram) = match m.as_str() {
             "microbit" => ("256K", "16K"),
             "mps2-an386" => ("4M", "4M"),
             other => {
                 return Err(bad(format!(
                     "target `{}`: `qloop bench` has no memory map for QEMU machine `{other}` \
-                     (known: microbit, mps2-an386)",
+                     (known: microbit, mps2-an386; virt for RISC-V)",
                     t.name
                 )))
             }
@@ -153,6 +173,72 @@ fn platform(t: &qloop::Target) -> Result<Platform, Fail> {
          {supported}",
         t.name
     )))
+}
+
+/// The RISC-V platform: machine `virt`, a `riscv*` compiler and an RV32 `-march` in the cflags,
+/// whose extensions give QEMU's `-cpu`.
+fn riscv_platform(t: &qloop::Target, cc: &str, m: &str) -> Result<Platform, Fail> {
+    if m != "virt" {
+        return Err(bad(format!(
+            "target `{}`: `qloop bench` runs RISC-V code on QEMU machine `virt` only, the \
+             toolchain names `{m}`",
+            t.name
+        )));
+    }
+    if !cc.contains("riscv") {
+        return Err(bad(format!(
+            "target `{}`: QEMU machine `virt` needs a RISC-V compiler, the toolchain names `{cc}`",
+            t.name
+        )));
+    }
+    let march = t
+        .toolchain
+        .cflags
+        .iter()
+        .find_map(|f| f.strip_prefix("-march="))
+        .unwrap_or("");
+    let cpu = riscv_cpu(march).ok_or_else(|| {
+        bad(format!(
+            "target `{}`: `qloop bench` needs an RV32 `-march=rv32...` in `[toolchain] cflags` \
+             (it picks QEMU's -cpu from it), found `{}`",
+            t.name,
+            if march.is_empty() { "none" } else { march }
+        ))
+    })?;
+    if !t
+        .toolchain
+        .cflags
+        .iter()
+        .any(|f| f.starts_with("-mabi=ilp32"))
+    {
+        return Err(bad(format!(
+            "target `{}`: `qloop bench` needs `-mabi=ilp32` (or ilp32e/f/d) in `[toolchain] \
+             cflags` next to `-march={march}`",
+            t.name
+        )));
+    }
+    Ok(Platform::Riscv {
+        machine: m.to_string(),
+        cpu,
+    })
+}
+
+/// QEMU's `-cpu` for an RV32 `-march` (`rv32imc` → `rv32,a=false,f=false,d=false`): the
+/// base `rv32` model with each single-letter extension the string lacks turned off.
+/// `None` unless it starts `rv32i` or `rv32g` (RV32E is not measured).
+fn riscv_cpu(march: &str) -> Option<String> {
+    let rest = march.strip_prefix("rv32")?;
+    // Single-letter extensions end at the first `_` (multi-letter ones, e.g. `_zicsr`).
+    let letters = rest.split('_').next().unwrap_or("");
+    let letters = letters.replace('g', "imafd");
+    let has: Vec<char> = letters.strip_prefix('i')?.chars().collect();
+    let mut cpu = "rv32".to_string();
+    for ext in ['m', 'a', 'f', 'd', 'c'] {
+        if !has.contains(&ext) {
+            let _ = write!(cpu, ",{ext}=false");
+        }
+    }
+    Some(cpu)
 }
 
 /// Fails with an install hint unless `prog --version` runs.
@@ -676,6 +762,231 @@ fn arm_link_ld(flash: &str, ram: &str) -> String {
     )
 }
 
+/// `bench_io.h` on RV32 under QEMU `virt`: `minstret` brackets, text lines on the UART.
+const RV_IO_H: &str = r#"/* bench_io.h -- qloop bench on RV32 under QEMU -M virt -icount: minstret brackets,
+ * results as text lines on the 16550 UART ("qb calib ...", "qb step ...", "qb done"). */
+#ifndef QLOOP_BENCH_IO_H
+#define QLOOP_BENCH_IO_H
+#include <stdint.h>
+
+#define BENCH_ROM
+
+void bench_putc(char c); /* startup.c: UART */
+
+/* csrr %0, minstret (CSR 0xB02), encoded with .insn: assemblers that want the Zicsr
+ * extension named in -march accept it too. Under -icount it counts instructions exactly. */
+#define BENCH_INSTRET(v) __asm__ __volatile__(".insn i 0x73, 2, %0, x0, -1278" : "=r"(v) : : "memory")
+
+static uint32_t bench_ticks;
+
+#define BENCH_TIMED(call)                                                                      \
+    do {                                                                                       \
+        uint32_t bench_t0_, bench_t1_;                                                         \
+        BENCH_INSTRET(bench_t0_);                                                              \
+        call;                                                                                  \
+        BENCH_INSTRET(bench_t1_);                                                              \
+        bench_ticks = bench_t1_ - bench_t0_;                                                   \
+    } while (0)
+
+static inline void bench_char(char c) { bench_putc(c); }
+
+static inline void bench_str(const char *s)
+{
+    while (*s)
+        bench_char(*s++);
+}
+
+static inline void bench_hex32(uint32_t v)
+{
+    int k;
+    for (k = 28; k >= 0; k -= 4)
+        bench_char("0123456789abcdef"[(v >> k) & 15u]);
+}
+
+/* " " and 16 hex digits. */
+static inline void bench_value(int64_t v)
+{
+    uint64_t u = (uint64_t)v;
+    bench_char(' ');
+    bench_hex32((uint32_t)(u >> 32));
+    bench_hex32((uint32_t)u);
+}
+
+static inline void bench_value_f(float f)
+{
+    union {
+        float f;
+        uint32_t u;
+    } c;
+    c.f = f;
+    bench_value((int64_t)c.u);
+}
+
+static inline void bench_setup(void) {}
+
+__attribute__((noinline)) static void bench_nop0(void) { __asm__ __volatile__(""); }
+__attribute__((noinline)) static void bench_nop64(void)
+{
+    __asm__ __volatile__(".rept 64\n\tnop\n\t.endr");
+}
+
+/* Least counts of 8 runs each: the empty bracket, a call of an empty function and of one
+ * with 64 nops (their difference is 64 instructions). */
+static inline void bench_calibrate(void)
+{
+    uint32_t e = 0xFFFFFFFFu, a = 0xFFFFFFFFu, b = 0xFFFFFFFFu;
+    int k;
+    for (k = 0; k < 8; k++) {
+        BENCH_TIMED((void)0);
+        if (bench_ticks < e)
+            e = bench_ticks;
+        BENCH_TIMED(bench_nop0());
+        if (bench_ticks < a)
+            a = bench_ticks;
+        BENCH_TIMED(bench_nop64());
+        if (bench_ticks < b)
+            b = bench_ticks;
+    }
+    bench_str("qb calib");
+    bench_value((int64_t)e);
+    bench_value((int64_t)a);
+    bench_value((int64_t)b);
+    bench_char('\n');
+}
+
+static inline void bench_load(void *dst, const void *src, uint32_t n)
+{
+    /* volatile: keeps GCC from turning the loop into a memcpy call. */
+    unsigned char *d = (unsigned char *)dst;
+    const volatile unsigned char *s = (const volatile unsigned char *)src;
+    while (n--)
+        *d++ = *s++;
+}
+
+static inline void bench_record_begin(uint32_t i)
+{
+    bench_str("qb step");
+    bench_value((int64_t)i);
+    bench_value((int64_t)bench_ticks);
+}
+
+static inline void bench_record_end(void) { bench_char('\n'); }
+
+static inline void bench_done(void) { bench_str("qb done\n"); }
+#endif
+"#;
+
+/// Entry, trap handler, UART, exit and the `mem*` routines GCC may call, for QEMU `virt`.
+const RV_STARTUP_C: &str = r#"/* startup.c -- qloop bench on RV32 under QEMU -M virt -bios none: entry at the start of
+ * RAM (gp, sp, mtvec), .bss zeroed, UART output, exit through the SiFive test device. */
+#include <stddef.h>
+#include <stdint.h>
+
+extern uint32_t _sbss, _ebss;
+int main(void);
+void bench_reset(void);
+void bench_fault(void);
+void bench_putc(char c);
+
+/* csrw mtvec, t0 (CSR 0x305) as .insn, see bench_io.h. */
+__asm__(".section .text.start,\"ax\",@progbits\n"
+        ".globl _start\n"
+        "_start:\n"
+        ".option push\n"
+        ".option norelax\n"
+        "\tla gp, __global_pointer$\n"
+        ".option pop\n"
+        "\tla sp, _estack\n"
+        "\tla t0, bench_trap\n"
+        "\t.insn i 0x73, 1, x0, t0, 0x305\n"
+        "\tcall bench_reset\n"
+        "1:\tj 1b\n"
+        ".text\n"
+        ".balign 4\n"
+        "bench_trap:\n"
+        "\tla sp, _estack\n"
+        "\tj bench_fault\n");
+
+#define BENCH_UART ((volatile uint8_t *)0x10000000u)
+#define BENCH_TEST (*(volatile uint32_t *)0x00100000u)
+
+void bench_putc(char c)
+{
+    while (!(BENCH_UART[5] & 0x20u)) /* LSR: transmitter holding register empty */
+        ;
+    BENCH_UART[0] = (uint8_t)c;
+}
+
+/* FINISHER_PASS (QEMU exits 0) or FINISHER_FAIL with code 1. */
+static void bench_exit(int ok)
+{
+    BENCH_TEST = ok ? 0x5555u : 0x13333u;
+    for (;;) {
+    }
+}
+
+void bench_fault(void)
+{
+    const char *s = "\nqb fault\n";
+    while (*s)
+        bench_putc(*s++);
+    bench_exit(0);
+}
+
+void bench_reset(void)
+{
+    uint32_t *d;
+    for (d = &_sbss; d < &_ebss;)
+        *d++ = 0;
+    bench_exit(main() == 0);
+}
+
+/* GCC may call these for struct copies even when freestanding; volatile keeps it from
+ * turning the loops back into calls. */
+void *memcpy(void *dst, const void *src, size_t n)
+{
+    volatile unsigned char *d = (volatile unsigned char *)dst;
+    const unsigned char *s = (const unsigned char *)src;
+    while (n--)
+        *d++ = *s++;
+    return dst;
+}
+
+void *memmove(void *dst, const void *src, size_t n)
+{
+    volatile unsigned char *d = (volatile unsigned char *)dst;
+    const unsigned char *s = (const unsigned char *)src;
+    if (d < s) {
+        while (n--)
+            *d++ = *s++;
+    } else {
+        while (n--)
+            d[n] = s[n];
+    }
+    return dst;
+}
+
+void *memset(void *dst, int c, size_t n)
+{
+    volatile unsigned char *d = (volatile unsigned char *)dst;
+    while (n--)
+        *d++ = (unsigned char)c;
+    return dst;
+}
+"#;
+
+/// Everything in the RAM of QEMU `virt` (from 0x80000000, where `-bios none` jumps); QEMU
+/// loads the ELF, so `.data` needs no copy.
+const RV_LINK_LD: &str = "/* qloop bench: QEMU virt, everything in RAM */\n\
+MEMORY\n{\n  RAM (rwx) : ORIGIN = 0x80000000, LENGTH = 64M\n}\n\
+ENTRY(_start)\n\
+SECTIONS\n{\n  \
+.text : { KEEP(*(.text.start)) *(.text*) } > RAM\n  \
+.rodata : { *(.rodata*) *(.srodata*) . = ALIGN(4); } > RAM\n  \
+.data : { __global_pointer$ = . + 0x800; *(.data*) *(.sdata*) . = ALIGN(4); } > RAM\n  \
+.bss (NOLOAD) : { _sbss = .; *(.sbss*) *(.bss*) *(COMMON) . = ALIGN(4); _ebss = .; } > RAM\n  \
+_estack = ORIGIN(RAM) + LENGTH(RAM);\n}\n";
+
 /// The variant's `main.c`: table, init, then per step load, timed step, report.
 fn main_c(v: &Variant) -> String {
     let p = &v.prefix;
@@ -897,8 +1208,19 @@ fn build(v: &Variant, t: &qloop::Target, pf: &Platform, dir: &Path) -> Result<Pa
             write_file(&dir.join("link.ld"), &arm_link_ld(flash, ram))?;
             cmd.args(["startup.c", "-nostartfiles", "-Tlink.ld"]);
         }
+        Platform::Riscv { .. } => {
+            write_file(&dir.join("bench_io.h"), RV_IO_H)?;
+            write_file(&dir.join("startup.c"), RV_STARTUP_C)?;
+            write_file(&dir.join("link.ld"), RV_LINK_LD)?;
+            // No C library (Debian's riscv64-unknown-elf-gcc has none): libgcc brings the
+            // soft-float, multiply and divide helpers.
+            cmd.args(["startup.c", "-nostdlib", "-Tlink.ld"]);
+        }
     }
     cmd.arg("-o").arg(&elf);
+    if matches!(pf, Platform::Riscv { .. }) {
+        cmd.arg("-lgcc");
+    }
     let shown = format!("{cc} {}", t.toolchain.cflags.join(" "));
     let out = cmd
         .output()
@@ -992,11 +1314,22 @@ fn check_counts(m: &Measured, v: &Variant, steps: usize, out: &str) -> Result<()
 }
 
 /// Runs the ELF under QEMU with `-icount`; instructions per step and the reported outputs.
-fn run_qemu(elf: &Path, machine: &str, v: &Variant, steps: usize) -> Result<Measured, Fail> {
+fn run_qemu(elf: &Path, pf: &Platform, v: &Variant, steps: usize) -> Result<Measured, Fail> {
     let dir = elf.parent().unwrap_or(Path::new("."));
-    let (status, out, err) = run_limited(
-        Command::new("qemu-system-arm")
-            .args([
+    let (prog, mut cmd) = match pf {
+        Platform::Riscv { machine, cpu } => {
+            let prog = "qemu-system-riscv32";
+            let mut cmd = Command::new(prog);
+            cmd.args(["-M", machine, "-cpu", cpu, "-bios", "none"])
+                .args(["-nographic", "-monitor", "none", "-serial", "stdio"])
+                .args(["-icount", "shift=0", "-kernel"])
+                .arg(elf);
+            (prog, cmd)
+        }
+        Platform::Qemu { machine, .. } => {
+            let prog = "qemu-system-arm";
+            let mut cmd = Command::new(prog);
+            cmd.args([
                 "-M",
                 machine,
                 "-nographic",
@@ -1007,11 +1340,13 @@ fn run_qemu(elf: &Path, machine: &str, v: &Variant, steps: usize) -> Result<Meas
             ])
             .args(["-semihosting-config", "enable=on,target=native"])
             .args(["-icount", "shift=10", "-kernel"])
-            .arg(elf),
-        "qemu-system-arm",
-        &dir.join("qemu.out"),
-        &dir.join("qemu.err"),
-    )?;
+            .arg(elf);
+            (prog, cmd)
+        }
+        Platform::Avr => return Err(failed("internal: QEMU run of an AVR target")),
+    };
+    let (status, out, err) =
+        run_limited(&mut cmd, prog, &dir.join("qemu.out"), &dir.join("qemu.err"))?;
     // Semihosting console output goes to stderr in QEMU 7; accept either stream.
     let text = format!("{out}\n{err}");
     if !status.success() || text.contains("qb fault") {
@@ -1057,8 +1392,13 @@ fn run_qemu(elf: &Path, machine: &str, v: &Variant, steps: usize) -> Result<Meas
     let per = nop64.saturating_sub(nop0) as f64 / 64.0;
     if per < 1.0 {
         return Err(failed(format!(
-            "QEMU's SysTick did not advance with the instruction count (64 nops took {} ticks); \
-             cannot count instructions (is -icount supported by this qemu-system-arm?)",
+            "QEMU's {} did not advance with the instruction count (64 nops took {} ticks); \
+             cannot count instructions (is -icount supported by this {prog}?)",
+            if prog == "qemu-system-arm" {
+                "SysTick"
+            } else {
+                "minstret"
+            },
             nop64.saturating_sub(nop0)
         )));
     }
@@ -1206,12 +1546,21 @@ fn summarize(
              compare cycles with its cost model, not with these counts)"
         );
     }
-    if let Platform::Qemu { .. } = pf {
+    if let Platform::Qemu { .. } | Platform::Riscv { .. } = pf {
         let _ = writeln!(
             o,
             "(QEMU counts every instruction as 1, whatever its cycles: multiplies, hardware \
              divides and FPU operations too)"
         );
+    }
+    if let Platform::Riscv { cpu, .. } = pf {
+        if cpu.contains("m=false") {
+            let _ = writeln!(
+                o,
+                "(no M extension: every multiply and divide is a libgcc routine, `__mulsi3`, \
+                 `__divsi3`, ..., counted instruction by instruction)"
+            );
+        }
     }
 
     // Outputs.
@@ -1399,10 +1748,20 @@ pub fn bench(a: &BenchArgs) -> Result<(), Fail> {
                 "it runs the Cortex-M code (Debian: apt-get install qemu-system-arm)",
             )?;
         }
+        Platform::Riscv { .. } => {
+            need_tool(
+                &cc,
+                "the RISC-V toolchain with its rv32 libgcc (Debian: apt-get install gcc-riscv64-unknown-elf)",
+            )?;
+            need_tool(
+                "qemu-system-riscv32",
+                "it runs the RISC-V code (Debian: apt-get install qemu-system-misc)",
+            )?;
+        }
     }
     let runner = match pf {
         Platform::Avr => Some(avr_runner()?),
-        Platform::Qemu { .. } => None,
+        Platform::Qemu { .. } | Platform::Riscv { .. } => None,
     };
 
     let values = script(plan, a.steps);
@@ -1449,10 +1808,14 @@ pub fn bench(a: &BenchArgs) -> Result<(), Fail> {
                 match &pf {
                     Platform::Avr => "simavr".to_string(),
                     Platform::Qemu { machine, .. } => format!("qemu-system-arm -M {machine}"),
+                    Platform::Riscv { machine, cpu } =>
+                        format!("qemu-system-riscv32 -M {machine} -cpu {cpu}"),
                 }
             );
             match (&pf, &runner) {
-                (Platform::Qemu { machine, .. }, _) => run_qemu(&elf, machine, v, a.steps),
+                (Platform::Qemu { .. } | Platform::Riscv { .. }, _) => {
+                    run_qemu(&elf, &pf, v, a.steps)
+                }
                 (Platform::Avr, Some(r)) => run_avr(r, &elf, v, a.steps),
                 (Platform::Avr, None) => Err(failed("internal: no simavr runner")),
             }
@@ -1529,6 +1892,26 @@ mod tests {
         };
         assert_eq!(raw_of(-0.5, i16t, 12), -2048);
         assert_eq!(raw_of(1.0 / 4096.0 * 1.5, i16t, 12), 1);
+    }
+
+    #[test]
+    fn riscv_cpu_turns_off_the_extensions_march_lacks() {
+        assert_eq!(
+            riscv_cpu("rv32i").as_deref(),
+            Some("rv32,m=false,a=false,f=false,d=false,c=false")
+        );
+        assert_eq!(
+            riscv_cpu("rv32imc").as_deref(),
+            Some("rv32,a=false,f=false,d=false")
+        );
+        assert_eq!(riscv_cpu("rv32gc").as_deref(), Some("rv32"));
+        assert_eq!(
+            riscv_cpu("rv32imac_zicsr").as_deref(),
+            Some("rv32,f=false,d=false")
+        );
+        assert_eq!(riscv_cpu("rv64imac"), None);
+        assert_eq!(riscv_cpu("rv32e"), None);
+        assert_eq!(riscv_cpu(""), None);
     }
 
     #[test]
