@@ -1,0 +1,57 @@
+//! A run's raw results and reading them from the simulator's output lines.
+
+use super::failed;
+use super::variants::Variant;
+use crate::Fail;
+
+/// A run's raw results: cost and raw outputs per step.
+pub(super) struct Measured {
+    pub(super) cost: Vec<u64>,
+    pub(super) outs: Vec<Vec<i64>>,
+}
+
+impl Measured {
+    pub(super) fn mean(&self) -> f64 {
+        self.cost.iter().sum::<u64>() as f64 / self.cost.len().max(1) as f64
+    }
+    pub(super) fn min(&self) -> u64 {
+        self.cost.iter().copied().min().unwrap_or(0)
+    }
+    pub(super) fn max(&self) -> u64 {
+        self.cost.iter().copied().max().unwrap_or(0)
+    }
+}
+
+pub(super) fn malformed(line: &str) -> Fail {
+    failed(format!("malformed line from the simulator: `{line}`"))
+}
+
+pub(super) fn num(s: &str, line: &str) -> Result<u64, Fail> {
+    s.parse().map_err(|_| malformed(line))
+}
+
+pub(super) fn hex(s: &str, line: &str) -> Result<i64, Fail> {
+    u64::from_str_radix(s, 16)
+        .map(|u| u as i64)
+        .map_err(|_| malformed(line))
+}
+
+pub(super) fn check_counts(m: &Measured, v: &Variant, steps: usize, out: &str) -> Result<(), Fail> {
+    if m.cost.len() != steps
+        || m.outs.len() != steps
+        || m.outs.iter().any(|o| o.len() != v.outputs.len())
+    {
+        let tail: Vec<&str> = out.lines().rev().take(5).collect();
+        return Err(failed(format!(
+            "variant `{}`: the simulator reported {} timed steps and {} output records for {} steps \
+             of {} outputs; last lines:\n{}",
+            v.name,
+            m.cost.len(),
+            m.outs.len(),
+            steps,
+            v.outputs.len(),
+            tail.into_iter().rev().collect::<Vec<_>>().join("\n")
+        )));
+    }
+    Ok(())
+}

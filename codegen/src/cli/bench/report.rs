@@ -1,0 +1,318 @@
+//! The report: the cost table with ratios to qloop, the output checks against qloop, the
+//! goals and the JSON summary.
+
+use super::measured::Measured;
+use super::platform::Platform;
+use super::variants::{OutKind, Variant};
+use super::{BenchArgs, DIV_SPEC};
+use crate::Fail;
+use qloop::ir::{SigId, SigKind};
+use std::fmt::Write as _;
+
+/// One goal line: its text and whether it is met.
+struct Goal {
+    text: String,
+    met: bool,
+}
+
+/// How far a variant's outputs are from qloop's after the first tenth of the steps.
+struct Deviation {
+    /// Largest |difference| as a fraction of the output's range, its absolute value, the
+    /// step and the output where it occurs.
+    rel: f64,
+    abs: f64,
+    step: usize,
+    output: usize,
+    /// Fraction of the compared steps where every output is within `tol` of the range.
+    within: f64,
+}
+
+fn deviation(
+    qv: &[(String, OutKind)],
+    q: &Measured,
+    v: &Variant,
+    m: &Measured,
+    spans: &[f64],
+    tol: f64,
+) -> Deviation {
+    let skip = q.outs.len() / 10;
+    let mut d = Deviation {
+        rel: 0.0,
+        abs: 0.0,
+        step: skip,
+        output: 0,
+        within: 1.0,
+    };
+    let (mut n, mut ok) = (0usize, 0usize);
+    for (i, (a, b)) in q.outs.iter().zip(&m.outs).enumerate().skip(skip) {
+        let mut step_ok = true;
+        for (k, ((_, qk), (_, vk))) in qv.iter().zip(&v.outputs).enumerate() {
+            let diff = (qk.value(a[k]) - vk.value(b[k])).abs();
+            let rel = if diff.is_nan() {
+                f64::INFINITY
+            } else {
+                diff / spans[k]
+            };
+            step_ok &= rel <= tol;
+            if rel > d.rel {
+                (d.rel, d.abs, d.step, d.output) = (rel, diff, i, k);
+            }
+        }
+        n += 1;
+        ok += usize::from(step_ok);
+    }
+    if n > 0 {
+        d.within = ok as f64 / n as f64;
+    }
+    d
+}
+
+fn fmt_mean(x: f64) -> String {
+    if (x - x.round()).abs() < 1e-9 {
+        format!("{}", x.round() as i64)
+    } else {
+        format!("{x:.2}")
+    }
+}
+
+/// Prints the table, the output checks and the goals, and writes the JSON; returns whether
+/// qloop's and plain_mul's outputs are identical and whether every goal is met.
+pub(super) fn summarize(
+    a: &BenchArgs,
+    pf: &Platform,
+    variants: &[Variant],
+    results: &[Measured],
+) -> Result<(bool, bool), Fail> {
+    let plan = a.plan;
+    let t = &plan.target;
+    let unit = pf.unit();
+    let q_mean = results[0].mean();
+    let mut o = format!(
+        "qloop bench: spec `{}` on target `{}` ({}), {} steps\nmethod: {}\n\n",
+        plan.prog.name,
+        t.name,
+        t.about,
+        a.steps,
+        pf.method()
+    );
+    let _ = writeln!(
+        o,
+        "{:<10} {:>12} {:>10} {:>10} {:>14}",
+        "variant",
+        format!("{unit}/step"),
+        "min",
+        "max",
+        "ratio to qloop"
+    );
+    let order = ["qloop", "plain_mul", "float", "div_float", "div_int32"];
+    let find = |name: &str| variants.iter().position(|v| v.name == name);
+    for name in order {
+        match find(name) {
+            Some(i) => {
+                let m = &results[i];
+                let _ = writeln!(
+                    o,
+                    "{:<10} {:>12} {:>10} {:>10} {:>13.2}x",
+                    name,
+                    fmt_mean(m.mean()),
+                    m.min(),
+                    m.max(),
+                    m.mean() / q_mean.max(f64::MIN_POSITIVE)
+                );
+            }
+            None => {
+                let _ = writeln!(
+                    o,
+                    "{:<10} {:>12} {:>10} {:>10} {:>14}",
+                    name, "n/a", "", "", ""
+                );
+            }
+        }
+    }
+    if !variants.iter().any(|v| v.name == "div_float") {
+        let _ = writeln!(
+            o,
+            "(div_float and div_int32 are hand-written for {DIV_SPEC} only: n/a for this spec)"
+        );
+    }
+    if t.name.contains("slowmul") && matches!(pf, Platform::Qemu { .. }) {
+        let _ = writeln!(
+            o,
+            "(QEMU counts instructions: the 32-cycle MULS of this target costs 1 here; \
+             compare cycles with its cost model, not with these counts)"
+        );
+    }
+    if let Platform::Qemu { .. } | Platform::Riscv { .. } = pf {
+        let _ = writeln!(
+            o,
+            "(QEMU counts every instruction as 1, whatever its cycles: multiplies, hardware \
+             divides and FPU operations too)"
+        );
+    }
+    if let Platform::Riscv { cpu, .. } = pf {
+        if cpu.contains("m=false") {
+            let _ = writeln!(
+                o,
+                "(no M extension: every multiply and divide is a libgcc routine, `__mulsi3`, \
+                 `__divsi3`, ..., counted instruction by instruction)"
+            );
+        }
+    }
+
+    // Outputs.
+    let _ = writeln!(o, "\noutputs:");
+    let q = &results[0];
+    let qv = &variants[0];
+    let out_ids: Vec<SigId> = plan.prog.ids_of(SigKind::Output).collect();
+    let spans: Vec<f64> = out_ids
+        .iter()
+        .map(|id| {
+            let (lo, hi) = plan.prog.sig(*id).range.unwrap_or(plan.summary[id.0].range);
+            if hi > lo {
+                hi - lo
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let p_idx = find("plain_mul").unwrap_or(1);
+    let mism = q
+        .outs
+        .iter()
+        .zip(&results[p_idx].outs)
+        .position(|(x, y)| x != y);
+    let identical = mism.is_none();
+    match mism {
+        None => {
+            let _ = writeln!(
+                o,
+                "  plain_mul == qloop: identical raw outputs on all {} steps",
+                a.steps
+            );
+        }
+        Some(i) => {
+            let _ = writeln!(
+                o,
+                "  plain_mul != qloop: raw outputs DIFFER from step {i} (qloop {:?}, plain_mul {:?}); \
+                 this is a bug: both compute the same exact products",
+                q.outs[i], results[p_idx].outs[i]
+            );
+        }
+    }
+    let out_units: Vec<String> = out_ids
+        .iter()
+        .map(|id| plan.prog.sig(*id).unit.clone().unwrap_or_default())
+        .collect();
+    let out_names: Vec<String> = out_ids
+        .iter()
+        .map(|id| plan.prog.sig(*id).name.clone())
+        .collect();
+    let skip = a.steps / 10;
+    for (name, tol, expected) in [
+        ("float", 0.02, None),
+        (
+            "div_float",
+            0.10,
+            Some("a different algorithm (K_c = K/K_p at once instead of integrating), so only held levels agree"),
+        ),
+        ("div_int32", 0.10, Some("the division algorithm of div_float, in Q12")),
+    ] {
+        let Some(i) = find(name) else { continue };
+        let d = deviation(&qv.outputs, q, &variants[i], &results[i], &spans, tol);
+        let verdict = match (d.rel <= tol, expected) {
+            (true, _) => "within tolerance".to_string(),
+            (false, None) => "DIFFERS".to_string(),
+            (false, Some(why)) => format!("differs, as expected: {why}"),
+        };
+        let _ = writeln!(
+            o,
+            "  {name:<9} vs qloop after step {skip}: {:.0} % of steps within {:.0} % of the output range; \
+             max |{}| difference {} {} ({:.2} %) at step {}: {verdict}",
+            d.within * 100.0,
+            tol * 100.0,
+            out_names.get(d.output).map(String::as_str).unwrap_or("output"),
+            qloop::report::g(d.abs),
+            out_units.get(d.output).map(String::as_str).unwrap_or(""),
+            d.rel * 100.0,
+            d.step,
+        );
+    }
+
+    // Goals.
+    let mut goals = Vec::new();
+    let ratio = |name: &str| find(name).map(|i| results[i].mean() / q_mean.max(f64::MIN_POSITIVE));
+    if let Some(r) = ratio("float") {
+        goals.push(Goal {
+            text: format!("qloop >= 3x fewer {unit} than float: {r:.2}x"),
+            met: r >= 3.0,
+        });
+    }
+    for name in ["div_float", "div_int32"] {
+        if let Some(r) = ratio(name) {
+            goals.push(Goal {
+                text: format!("qloop >= 5x fewer {unit} than {name}: {r:.2}x"),
+                met: r >= 5.0,
+            });
+        }
+    }
+    if let Some(i) = find("plain_mul") {
+        let pm = results[i].mean();
+        goals.push(Goal {
+            text: format!(
+                "qloop <= plain_mul: {} vs {} {unit}",
+                fmt_mean(q_mean),
+                fmt_mean(pm)
+            ),
+            met: q_mean <= pm,
+        });
+    }
+    let stated = plan.prog.name == DIV_SPEC && t.name == "atmega328p";
+    let _ = writeln!(
+        o,
+        "\ngoals{}:",
+        if stated {
+            ""
+        } else {
+            " (stated for koren_masory_1981 on atmega328p; informational here)"
+        }
+    );
+    for g in &goals {
+        let _ = writeln!(
+            o,
+            "  {:<8} {}",
+            if g.met { "met" } else { "NOT met" },
+            g.text
+        );
+    }
+    let all_met = goals.iter().all(|g| g.met);
+    print!("{o}");
+
+    if let Some(path) = a.json {
+        let val = |name: &str, f: &dyn Fn(&Measured) -> serde_json::Value| {
+            find(name).map_or(serde_json::Value::Null, |i| f(&results[i]))
+        };
+        let obj = |f: &dyn Fn(&Measured) -> serde_json::Value| {
+            let mut m = serde_json::Map::new();
+            for name in order {
+                m.insert(name.to_string(), val(name, f));
+            }
+            serde_json::Value::Object(m)
+        };
+        let json = serde_json::json!({
+            "spec": plan.prog.name,
+            "target": t.name,
+            "unit": unit,
+            "method": pf.method(),
+            "steps": a.steps,
+            "step": obj(&|m| serde_json::json!((m.mean() * 100.0).round() / 100.0)),
+            "min": obj(&|m| serde_json::json!(m.min())),
+            "max": obj(&|m| serde_json::json!(m.max())),
+            "qloop_equals_plain_mul": identical,
+            "goals": goals.iter().map(|g| serde_json::json!({"goal": g.text, "met": g.met})).collect::<Vec<_>>(),
+        });
+        let text = serde_json::to_string_pretty(&json).unwrap_or_default() + "\n";
+        crate::write_atomic(path, &text)?;
+        println!("\nwrote {}", path.display());
+    }
+    Ok((identical, all_met))
+}
