@@ -91,6 +91,13 @@ pub fn gen_c(plan: &Plan) -> (String, String) {
     emit::c::files(plan)
 }
 
+/// `qloop gen --lang linuxcnc` output: the LinuxCNC HAL component `qloop_NAME.comp` (for
+/// `halcompile`) that embeds [`gen_c`]'s controller; an error names what the spec has that a
+/// component cannot represent (see [`emit::linuxcnc`]).
+pub fn gen_linuxcnc(plan: &Plan) -> Result<String, emit::linuxcnc::Unrepresentable> {
+    emit::linuxcnc::component(plan)
+}
+
 /// What the `controller!` macro does with its input.
 ///
 /// Input forms: a spec inline (`controller name { .. }`), or a path string relative to the

@@ -45,12 +45,14 @@ enum Cmd {
         /// Write to this file (atomically) instead of standard output.
         #[arg(short, long)]
         output: Option<PathBuf>,
-        /// `--lang c`: write NAME.h and NAME.c into this directory (created if missing).
+        /// Write into this directory (created if missing): `--lang c` NAME.h and NAME.c,
+        /// `--lang linuxcnc` qloop_NAME.comp.
         #[arg(long)]
         out: Option<PathBuf>,
         /// Target: a built-in name (see `qloop targets`) or a target file (`*.toml`).
-        #[arg(long, default_value = "rv32i")]
-        target: String,
+        /// Default: rv32i; host for `--lang linuxcnc`.
+        #[arg(long)]
+        target: Option<String>,
     },
     /// Prove every obligation (overflow, initial, inductive, properties) with z3 and cvc5.
     ///
@@ -162,12 +164,14 @@ enum Cmd {
     /// plain multiplies, in `float`, and (koren_masory_1981) the direct-division baselines.
     ///
     /// Compiles each variant with the target's C compiler and runs it in a simulator:
-    /// simavr on atmega328p (exact cycles), qemu-system-arm on Cortex-M (instructions
-    /// executed, -icount). Prints cost per step, ratios to qloop and the goals.
+    /// simavr on atmega328p (exact cycles), qemu-system-arm on Cortex-M and
+    /// qemu-system-riscv32 on RV32 (instructions executed, -icount). Prints cost per step,
+    /// ratios to qloop and the goals.
     Bench {
         /// The spec file (*.qloop).
         spec: PathBuf,
-        /// Target: atmega328p, cortex-m0, cortex-m0-slowmul, cortex-m4 (or a target file).
+        /// Target: atmega328p, cortex-m0, cortex-m0-slowmul, cortex-m4, rv32i, rv32imc (or a
+        /// target file).
         #[arg(long)]
         target: String,
         /// Also write the results as JSON to this file.
@@ -208,6 +212,9 @@ enum Lang {
     Kani,
     /// C99 `.h`/`.c` pair (stdint types, no UB, ACSL contract; see `--out`).
     C,
+    /// LinuxCNC HAL component `qloop_NAME.comp` for halcompile: the C controller, float pins
+    /// `spindle-load` (first input) and `adaptive-feed` (first output over its range maximum).
+    Linuxcnc,
 }
 
 /// A failure with its exit code.
@@ -235,16 +242,21 @@ fn run(cli: Cli) -> Result<(), Fail> {
             out,
             target,
         } => {
-            let (plan, _) = load(&spec, &target)?;
+            let default_target = match lang {
+                Lang::Linuxcnc => "host",
+                _ => "rv32i",
+            };
+            let (plan, _) = load(&spec, target.as_deref().unwrap_or(default_target))?;
             let text = match lang {
                 Lang::Rust => qloop::gen_rust(&plan),
                 Lang::RustRef => qloop::gen_reference(&plan),
                 Lang::Kani => qloop::gen_kani(&plan),
                 Lang::C => return gen_c(&plan, out.as_deref(), output.as_deref()),
+                Lang::Linuxcnc => return gen_linuxcnc(&plan, out.as_deref(), output.as_deref()),
             };
             if out.is_some() {
                 eprintln!(
-                    "error: `--out DIR` is for `--lang c`, which writes two files; use `-o FILE`"
+                    "error: `--out DIR` is for `--lang c` and `--lang linuxcnc`; use `-o FILE`"
                 );
                 return Err(Fail(2));
             }
@@ -460,6 +472,47 @@ fn gen_c(plan: &Plan, dir: Option<&Path>, output: Option<&Path>) -> Result<(), F
     let name = &plan.prog.name;
     write_atomic(&dir.join(format!("{name}.h")), &h)?;
     write_atomic(&dir.join(format!("{name}.c")), &c)
+}
+
+/// Writes the LinuxCNC component: `DIR/qloop_NAME.comp`, the file `-o` names (which must be
+/// `qloop_NAME.comp`: halcompile takes the component name from the file name), or stdout.
+fn gen_linuxcnc(plan: &Plan, dir: Option<&Path>, output: Option<&Path>) -> Result<(), Fail> {
+    let comp = qloop::emit::linuxcnc::component_name(plan);
+    let file = format!("{comp}.comp");
+    let path = match (dir, output) {
+        (Some(_), Some(_)) => {
+            eprintln!("error: give either `--out DIR` or `-o FILE`, not both");
+            return Err(Fail(2));
+        }
+        (Some(d), None) => Some(d.join(&file)),
+        (None, Some(p)) => {
+            if p.file_name().and_then(|n| n.to_str()) != Some(file.as_str()) {
+                eprintln!(
+                    "error: `{}`: the component is `{comp}`, and halcompile requires its file \
+                     to be named `{file}`",
+                    p.display()
+                );
+                return Err(Fail(2));
+            }
+            Some(p.to_path_buf())
+        }
+        (None, None) => None,
+    };
+    let text = qloop::gen_linuxcnc(plan).map_err(|e| {
+        eprintln!("error: {e}");
+        Fail(2)
+    })?;
+    let Some(path) = path else {
+        print!("{text}");
+        return Ok(());
+    };
+    if let Some(d) = dir {
+        std::fs::create_dir_all(d).map_err(|e| {
+            eprintln!("error: cannot create `{}`: {e}", d.display());
+            Fail(2)
+        })?;
+    }
+    write_atomic(&path, &text)
 }
 
 /// A built-in target by name, or a target file.

@@ -4,6 +4,7 @@
 pub mod c;
 pub mod c_float;
 pub mod kani;
+pub mod linuxcnc;
 pub mod reference;
 pub mod rust;
 

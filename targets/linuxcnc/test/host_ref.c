@@ -23,11 +23,13 @@ int main(int argc, char **argv)
     if (argc > 1 && strcmp(argv[1], "--meta") == 0) {
         printf("period_us %lu\n", (unsigned long)QLOOP_PERIOD_US);
         printf("n_in %d\nn_out %d\n", QLOOP_N_IN, QLOOP_N_OUT);
+        printf("round_nearest %d\n", QLOOP_ROUND_NEAREST);
         for (i = 0; i < QLOOP_N_IN; i++)
             printf("in %d %a %ld %ld\n", i, qloop_in_scale[i], (long)qloop_in_min[i],
                    (long)qloop_in_max[i]);
         for (i = 0; i < QLOOP_N_OUT; i++)
-            printf("out %d %a %a\n", i, qloop_out_scale[i], qloop_out_full_scale[i]);
+            printf("out %d %a\n", i, qloop_out_scale[i]);
+        printf("override %a\n", qloop_override_scale);
         return 0;
     }
 

@@ -1,0 +1,436 @@
+//! The LinuxCNC HAL component (`qloop gen --lang linuxcnc`):
+//! * a snapshot of the 1981 controller's `.comp` (review every changed `.snap` line by line),
+//!   and the committed example `targets/linuxcnc/example/` equal to it;
+//! * its C: the controller section has no division, modulo or floating point, the whole C
+//!   section no division or modulo; the markers `run.sh` relies on are there;
+//! * what a component cannot represent is refused with a message, never a panic;
+//! * every seed spec's component, built by `halcompile --install` and run in a `halrun` servo
+//!   thread by `targets/linuxcnc/run.sh`, matches the Rust controller (`qloop-verified`) period
+//!   by period. It needs halcompile and halrun (LinuxCNC), and root or password-less sudo;
+//!   missing, the test skips with a note unless `QLOOP_REQUIRE_TOOLS` is set.
+
+use qloop::emit::linuxcnc::{component_name, MARKERS};
+use qloop_tests::{plan_for, run, scratch, spec_stems, tool};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The component of a seed spec, planned for `host` as `qloop gen --lang linuxcnc` does.
+fn comp(stem: &str) -> String {
+    qloop::gen_linuxcnc(&plan_for(stem, "host")).unwrap_or_else(|e| panic!("{stem}: {e}"))
+}
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// The text between two marker lines.
+fn between<'a>(text: &'a str, begin: &str, end: &str) -> &'a str {
+    let a = text.find(begin).expect("begin marker") + begin.len();
+    let b = text[a..].find(end).expect("end marker") + a;
+    &text[a..b]
+}
+
+/// C source without its comments (string literals kept).
+fn strip_comments(c: &str) -> String {
+    let (b, mut o, mut i) = (c.as_bytes(), Vec::new(), 0);
+    while i < b.len() {
+        if b[i..].starts_with(b"/*") {
+            i += c[i..].find("*/").map_or(b.len() - i, |k| k + 2);
+            o.push(b' ');
+        } else if b[i..].starts_with(b"//") {
+            i += c[i..].find('\n').unwrap_or(b.len() - i);
+        } else if b[i] == b'"' {
+            let end = (i + 1..b.len())
+                .find(|&k| b[k] == b'"' && b[k - 1] != b'\\')
+                .unwrap_or(b.len() - 1);
+            o.extend_from_slice(&b[i..=end]);
+            i = end + 1;
+        } else {
+            o.push(b[i]);
+            i += 1;
+        }
+    }
+    String::from_utf8(o).unwrap()
+}
+
+/// Identifier and number tokens of a line of C.
+fn tokens(line: &str) -> Vec<&str> {
+    let mut v = Vec::new();
+    let b = line.as_bytes();
+    let mut i = 0;
+    while i < b.len() {
+        if b[i].is_ascii_alphanumeric() || b[i] == b'_' || b[i] == b'.' {
+            let s = i;
+            while i < b.len()
+                && (b[i].is_ascii_alphanumeric()
+                    || b[i] == b'_'
+                    || b[i] == b'.'
+                    || ((b[i] == b'+' || b[i] == b'-')
+                        && matches!(b[i - 1], b'e' | b'E' | b'p' | b'P')
+                        && b[s].is_ascii_digit()))
+            {
+                i += 1;
+            }
+            v.push(&line[s..i]);
+        } else {
+            i += 1;
+        }
+    }
+    v
+}
+
+/// A floating constant: a decimal number with a point or an exponent, or a hexadecimal one
+/// with a binary exponent.
+fn is_float_literal(t: &str) -> bool {
+    let hex = t.starts_with("0x") || t.starts_with("0X");
+    (t.starts_with(|c: char| c.is_ascii_digit()) || (t.starts_with('.') && t.len() > 1))
+        && if hex {
+            t.contains(['p', 'P'])
+        } else {
+            t.contains(['.', 'e', 'E'])
+        }
+}
+
+#[test]
+fn koren_masory_1981_component_snapshot() {
+    insta::assert_snapshot!("koren_masory_1981_comp", comp("koren_masory_1981"));
+}
+
+#[test]
+fn committed_example_is_the_emitters_output() {
+    let stem = "koren_masory_1981";
+    let path = root().join(format!("targets/linuxcnc/example/qloop_{stem}.comp"));
+    let committed = std::fs::read_to_string(&path).unwrap();
+    assert!(
+        committed == comp(stem),
+        "{} differs from the emitter's output; regenerate it with\n  cargo run -p qloop -- gen \
+         verified/specs/{stem}.qloop --lang linuxcnc --out targets/linuxcnc/example",
+        path.display()
+    );
+}
+
+#[test]
+fn every_seed_spec_is_a_component_with_the_pins_run_sh_expects() {
+    for stem in spec_stems() {
+        let plan = plan_for(&stem, "host");
+        let text = comp(&stem);
+        let name = component_name(&plan);
+        assert!(text.starts_with(&format!("component {name} ")), "{stem}");
+        let n_in = plan.prog.ids_of(qloop::ir::SigKind::Input).count();
+        let in_pins: Vec<&str> = text
+            .lines()
+            .filter_map(|l| l.strip_prefix("pin in float "))
+            .map(|l| l.split(' ').next().unwrap())
+            .collect();
+        assert_eq!(in_pins.len(), n_in, "{stem}");
+        assert_eq!(in_pins[0], "spindle_load", "{stem}");
+        for p in &in_pins {
+            assert!(
+                text.contains(&format!("\npin out s32 {p}_raw ")),
+                "{stem}: {p}_raw"
+            );
+        }
+        for p in [
+            "pin out float adaptive_feed ",
+            "pin out u32 steps ",
+            "param r u32 period_us = ",
+            "\nfunction _ ",
+            "\nFUNCTION(_)\n",
+            "\nEXTRA_SETUP()\n",
+        ] {
+            assert!(text.contains(p), "{stem}: no `{p}`");
+        }
+        // Every push has its pop, in the same order.
+        let pushes: Vec<&str> = text
+            .lines()
+            .filter_map(|l| l.strip_prefix("#pragma push_macro"))
+            .collect();
+        let pops: Vec<&str> = text
+            .lines()
+            .filter_map(|l| l.strip_prefix("#pragma pop_macro"))
+            .collect();
+        assert!(!pushes.is_empty() && pushes == pops, "{stem}");
+        let mut at = 0;
+        for m in MARKERS {
+            at += text[at..]
+                .find(m)
+                .unwrap_or_else(|| panic!("{stem}: marker {m} missing or out of order"));
+        }
+    }
+}
+
+#[test]
+fn controller_has_no_division_or_float_and_the_component_no_division() {
+    for stem in spec_stems() {
+        let text = comp(&stem);
+        let controller = strip_comments(between(&text, MARKERS[0], MARKERS[1]));
+        assert!(controller.contains(&format!("{stem}_step(")), "{stem}");
+        let params: Vec<&str> = controller
+            .lines()
+            .filter_map(|l| l.strip_prefix("#define "))
+            .map(|l| l.split(' ').next().unwrap())
+            .filter(|m| m.contains("_PARAM_"))
+            .collect();
+        for line in controller.lines() {
+            assert!(
+                !line.contains('/') && !line.contains('%'),
+                "{stem}: division or modulo in the controller: {line}"
+            );
+            let toks = tokens(line);
+            assert!(
+                !toks.iter().any(|t| *t == "float" || *t == "double"),
+                "{stem}: floating-point type in the controller: {line}"
+            );
+            // The compiled-in params are documented as macros; nothing may use them.
+            if params
+                .iter()
+                .any(|m| line.starts_with(&format!("#define {m} ")))
+            {
+                continue;
+            }
+            assert!(
+                !toks.iter().any(|t| is_float_literal(t)),
+                "{stem}: floating constant in the controller: {line}"
+            );
+            assert!(
+                !toks.iter().any(|t| params.contains(t)),
+                "{stem}: a param macro is used: {line}"
+            );
+        }
+        // The glue and the HAL function convert floats by multiplications only.
+        let c = strip_comments(text.split_once("\n;;\n").expect("C section").1);
+        for line in c.lines() {
+            assert!(
+                !line.contains('/') && !line.contains('%'),
+                "{stem}: division or modulo in the component's C: {line}"
+            );
+        }
+    }
+}
+
+/// The entries of a glue array `static const T NAME[..] = { a, b }; /* .. */`.
+fn glue_array(text: &str, name: &str) -> Vec<String> {
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("static const") && l.contains(&format!(" {name}[")))
+        .unwrap_or_else(|| panic!("no {name}"));
+    let inner = between(line, "{ ", " }");
+    inner.split(", ").map(str::to_string).collect()
+}
+
+/// The value after `prefix` on the line that starts with it, up to `end`.
+fn value_after<'a>(text: &'a str, prefix: &str, end: char) -> &'a str {
+    let line = text
+        .lines()
+        .find(|l| l.starts_with(prefix))
+        .unwrap_or_else(|| panic!("no line `{prefix}`"));
+    line[prefix.len()..].split(end).next().unwrap()
+}
+
+/// The constants run.sh's checker takes from the glue (conversion scales, raw bounds, the
+/// override multiplier, rounding, period) and the params' values, recomputed from the plan.
+#[test]
+fn glue_constants_and_params_are_the_plans() {
+    use qloop::ir::SigKind;
+    for stem in spec_stems() {
+        let plan = plan_for(&stem, "host");
+        let text = comp(&stem);
+        let glue = between(&text, MARKERS[2], MARKERS[3]);
+        let ins: Vec<_> = plan.prog.ids_of(SigKind::Input).collect();
+        let outs: Vec<_> = plan.prog.ids_of(SigKind::Output).collect();
+        let scale = |e: i32| format!("0x1p{e}");
+        let want: Vec<String> = ins.iter().map(|i| scale(plan.format(*i).frac)).collect();
+        assert_eq!(glue_array(glue, "qloop_in_scale"), want, "{stem}");
+        let bounds: Vec<(i128, i128)> = ins.iter().map(|i| plan.raw_bounds(*i).unwrap()).collect();
+        let lo: Vec<String> = bounds.iter().map(|b| b.0.to_string()).collect();
+        let hi: Vec<String> = bounds.iter().map(|b| b.1.to_string()).collect();
+        assert_eq!(glue_array(glue, "qloop_in_min"), lo, "{stem}");
+        assert_eq!(glue_array(glue, "qloop_in_max"), hi, "{stem}");
+        let want: Vec<String> = outs.iter().map(|o| scale(-plan.format(*o).frac)).collect();
+        assert_eq!(glue_array(glue, "qloop_out_scale"), want, "{stem}");
+        let ovr: f64 = value_after(glue, "static const double qloop_override_scale = ", ';')
+            .parse()
+            .unwrap();
+        assert_eq!(ovr, 1.0 / plan.summary[outs[0].0].range.1, "{stem}");
+        let nearest = plan.prog.rounding == qloop::qformat::Rounding::Nearest;
+        assert_eq!(
+            value_after(glue, "#define QLOOP_ROUND_NEAREST ", ' '),
+            if nearest { "1" } else { "0" },
+            "{stem}"
+        );
+        let period_us = (plan.prog.period * 1e6).round() as u64;
+        assert_eq!(
+            value_after(glue, "#define QLOOP_PERIOD_US ", 'U'),
+            period_us.to_string()
+        );
+        assert_eq!(
+            value_after(&text, "param r u32 period_us = ", ' '),
+            period_us.to_string()
+        );
+        for c in plan.prog.constants.iter().filter(|c| c.is_param) {
+            let prefix = format!("param r float {} = ", c.name.to_lowercase());
+            let v: f64 = value_after(&text, &prefix, ' ').parse().unwrap();
+            assert_eq!(v, c.value, "{stem}: {}", c.name);
+        }
+    }
+}
+
+#[test]
+fn the_checks_see_what_they_look_for() {
+    assert!(is_float_literal("0.5") && is_float_literal("0x1p-12") && is_float_literal("1e3"));
+    assert!(!is_float_literal("20480") && !is_float_literal("0x1e") && !is_float_literal("_1e5"));
+    assert_eq!(tokens("x = 1.5e-3 * y;"), ["x", "1.5e-3", "y"]);
+    assert_eq!(
+        strip_comments("a /* b / c */ d // e\n\"/\""),
+        "a   d \n\"/\""
+    );
+}
+
+/// Compiles a spec for `host` and generates its component; the error message if refused.
+fn refusal(src: &str) -> String {
+    let plan = qloop::compile_str(src, &qloop::Target::by_name("host").unwrap())
+        .unwrap_or_else(|e| panic!("{e}\n{src}"));
+    match qloop::gen_linuxcnc(&plan) {
+        Ok(_) => panic!("accepted:\n{src}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+/// A small spec: `decls` inside the controller, and a body.
+fn spec(name: &str, decls: &str, body: &str) -> String {
+    format!("controller {name} {{\n period 0.01 \"s\";\n {decls}\n step {{ {body} }}\n}}\n")
+}
+
+#[test]
+fn what_a_component_cannot_represent_is_refused_with_a_message() {
+    let cases = [
+        (
+            spec(
+                "t",
+                "input x: [0.0, 1.0]; output y: [-1.0, 0.0];",
+                "y = -x;",
+            ),
+            "range maximum, which is 0",
+        ),
+        (
+            spec(
+                "t",
+                "input x: [0.0, 1.0]; state s: [0.0, 1.0] = 0.0;",
+                "s = x;",
+            ),
+            "no output",
+        ),
+        (
+            spec(
+                "t",
+                "#[q(i64, 40)] input x: [0.0, 1.0]; output y;",
+                "y = x;",
+            ),
+            "does not fit a HAL s32 pin",
+        ),
+        (
+            spec(
+                "t",
+                "input x: [0.0, 1.0]; input ω: [0.0, 1.0]; output y;",
+                "y = x + ω;",
+            ),
+            "not an ASCII identifier",
+        ),
+        (
+            spec(
+                "t",
+                "input x: [0.0, 1.0]; input time: [0.0, 1.0]; output y;",
+                "y = x + time;",
+            ),
+            "`time` is reserved",
+        ),
+        (
+            spec(
+                "t",
+                "input x: [0.0, 1.0]; input qloop_v: [0.0, 1.0]; output y;",
+                "y = x + qloop_v;",
+            ),
+            "starts with `qloop_`",
+        ),
+        (
+            spec(
+                "t",
+                "input x: [0.0, 1.0]; param STEPS: 2.0; output y;",
+                "y = x * STEPS;",
+            ),
+            "would both be the HAL name `steps`",
+        ),
+        (
+            spec(
+                "t",
+                "input x: [0.0, 1.0]; input b: [0.0, 1.0]; output b_raw;",
+                "b_raw = x + b;",
+            ),
+            "would both be the HAL name `b_raw`",
+        ),
+        (
+            spec(
+                "a_controller_name_too_long_for_hal",
+                "input x: [0.0, 1.0]; output y;",
+                "y = x;",
+            ),
+            "more than HAL's 47",
+        ),
+    ];
+    for (src, want) in cases {
+        let msg = refusal(&src);
+        assert!(msg.contains(want), "expected `{want}` in: {msg}\n{src}");
+        assert!(msg.starts_with("spec `"), "{msg}");
+    }
+}
+
+/// Whether `halcompile --install` can run: as root, or with password-less sudo (a prompt
+/// would hang the test).
+fn can_install() -> bool {
+    let uid = Command::new("id").arg("-u").output().ok();
+    let root = uid.is_some_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "0");
+    let sudo = || {
+        Command::new("sudo")
+            .args(["-n", "true"])
+            .status()
+            .is_ok_and(|s| s.success())
+    };
+    if root || sudo() {
+        return true;
+    }
+    assert!(
+        std::env::var_os("QLOOP_REQUIRE_TOOLS").is_none(),
+        "halcompile --install needs root or password-less sudo (QLOOP_REQUIRE_TOOLS is set)"
+    );
+    eprintln!("skipping: halcompile --install needs root or password-less sudo");
+    false
+}
+
+/// One test for every spec, in sequence: `run.sh` holds the machine-wide HAL session.
+#[test]
+fn halrun_matches_the_rust_controller_for_every_seed_spec() {
+    if tool("halcompile").is_none() || tool("halrun").is_none() || !can_install() {
+        return;
+    }
+    let dir = scratch("linuxcnc");
+    for stem in spec_stems() {
+        let plan = plan_for(&stem, "host");
+        let comp_file = dir.join(format!("{}.comp", component_name(&plan)));
+        std::fs::write(&comp_file, comp(&stem)).unwrap();
+        // The 1981 controller gets the full 20,000 periods, the others a shorter run.
+        let rows = if stem == "koren_masory_1981" {
+            "20000"
+        } else {
+            "6000"
+        };
+        let out = run(Command::new("bash")
+            .arg(root().join("targets/linuxcnc/run.sh"))
+            .arg(&comp_file)
+            .arg("rust")
+            .env("QLOOP_TEST_ROWS", rows)
+            .env("CARGO_TARGET_DIR", root().join("target/linuxcnc-ref")));
+        let pass = out.lines().find(|l| l.starts_with("PASS: "));
+        assert!(pass.is_some(), "{stem}: no PASS line:\n{out}");
+        eprintln!("{stem}: {}", pass.unwrap_or_default());
+    }
+}
