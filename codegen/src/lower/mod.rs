@@ -123,11 +123,24 @@ pub fn lower(prog: &Program, target: &Target) -> Result<Plan> {
         .ids_of(SigKind::Output)
         .filter(|id| formats[id.0].is_none())
         .collect();
-    if !unranged.is_empty() {
-        // First pass: learn the value range each unranged output receives.
-        let first = Lowerer::new(prog, target, formats.clone()).run()?;
-        for id in unranged {
-            let (lo, hi) = first.seen[&id];
+    if unranged.is_empty() {
+        let done = Lowerer::new(prog, target, formats.clone()).run()?;
+        return Ok(done.finish(formats));
+    }
+    // First pass: learn the value range each unranged output receives. The format chosen
+    // from it changes the binary points upstream (constants take their context's), so the
+    // next pass computes slightly different values: repeat until every unranged output's
+    // format holds everything it receives, so that its saturation never acts.
+    let mut ranges: HashMap<SigId, (f64, f64)> = Lowerer::new(prog, target, formats.clone())
+        .run()?
+        .seen
+        .into_iter()
+        .filter(|(id, _)| unranged.contains(id))
+        .collect();
+    let mut unstable = unranged[0];
+    for _ in 0..UNRANGED_PASSES {
+        for &id in &unranged {
+            let (lo, hi) = ranges[&id];
             let s = prog.sig(id);
             let q = QFormat::best_for(IntTy::signed(prog.word), lo, hi).ok_or_else(|| {
                 Diag::new(
@@ -141,10 +154,35 @@ pub fn lower(prog: &Program, target: &Target) -> Result<Plan> {
             })?;
             formats[id.0] = Some(q);
         }
+        let done = Lowerer::new(prog, target, formats.clone()).run()?;
+        let mut stable = true;
+        for &id in &unranged {
+            let q = formats[id.0].expect("chosen above");
+            let (lo, hi) = done.received[&id];
+            if !q.ty.holds(q.raw_floor(lo), q.raw_ceil(hi)) {
+                let r = ranges.get_mut(&id).expect("recorded in the first pass");
+                *r = (r.0.min(lo), r.1.max(hi));
+                stable = false;
+                unstable = id;
+            }
+        }
+        if stable {
+            return Ok(done.finish(formats));
+        }
     }
-    let done = Lowerer::new(prog, target, formats.clone()).run()?;
-    Ok(done.finish(formats))
+    let id = unstable;
+    Err(Diag::new(
+        prog.sig(id).span,
+        format!(
+            "could not find a format for the unranged output `{}` that holds every value it              receives",
+            prog.sig(id).name
+        ),
+    )
+    .help("declare its range (`output y: [LO, HI];`) so it saturates, or pin a format"))
 }
+
+/// Passes over the step that may refine the formats of unranged outputs.
+const UNRANGED_PASSES: usize = 4;
 
 /// Picks the storage format of a declared signal.
 fn choose_format(s: &Signal, word: u32) -> Result<QFormat> {
@@ -211,6 +249,8 @@ struct Lowerer<'a> {
     inputs: HashMap<SigId, ValId>,
     /// Physical hull of values stored to each output.
     seen: HashMap<SigId, (f64, f64)>,
+    /// Physical hull of the values each output receives before its saturation.
+    received: HashMap<SigId, (f64, f64)>,
     mults: Vec<MulNote>,
     /// Spec line of the statement being lowered.
     line: usize,
@@ -224,6 +264,7 @@ struct Lowered {
     env: HashMap<SigId, Abs>,
     locals: HashMap<SigId, ValId>,
     seen: HashMap<SigId, (f64, f64)>,
+    received: HashMap<SigId, (f64, f64)>,
     mults: Vec<MulNote>,
 }
 
@@ -294,6 +335,7 @@ impl<'a> Lowerer<'a> {
             locals: HashMap::new(),
             inputs: HashMap::new(),
             seen: HashMap::new(),
+            received: HashMap::new(),
             mults: Vec::new(),
             line: 0,
         }
@@ -343,6 +385,7 @@ impl<'a> Lowerer<'a> {
             env: self.env,
             locals: self.locals,
             seen: self.seen,
+            received: self.received,
             mults: self.mults,
         })
     }
@@ -703,6 +746,11 @@ impl<'a> Lowerer<'a> {
         let mut v = self.rescale(v, q.frac, span, out)?;
         let (lo, hi) = self.bounds(target);
         let y = self.v(v).clone();
+        {
+            let (l, h) = (y.lo as f64 * pow2(-y.frac), y.hi as f64 * pow2(-y.frac));
+            let e = self.received.entry(target).or_insert((l, h));
+            *e = (e.0.min(l), e.1.max(h));
+        }
         let mut err = y.err;
         if self.prog.sig(target).unsaturated {
             // No clamp: the declared range is a claim the prover must discharge.
