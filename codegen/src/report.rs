@@ -62,11 +62,12 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
     );
     let _ = writeln!(
         o,
-        "target model: {}-bit words, C int {} bits (intermediates start there), multiplier {}, {}",
+        "target model: {}-bit words, C int {} bits (intermediates start there), multiplier {}, {}{}",
         t.word_bits,
         t.c.int_bits,
         multiplier_text(t),
-        shifter_text(t)
+        shifter_text(t),
+        extra_costs_text(t)
     );
     let _ = writeln!(o);
     let rows: Vec<[String; 7]> = p
@@ -178,11 +179,33 @@ fn shifter_text(t: &Target) -> String {
     if t.shifter.barrel {
         format!("barrel shifter ({} cycle(s))", t.shifter.cycles)
     } else {
-        format!(
-            "no barrel shifter ({} cycle(s) per bit per word)",
+        let mut s = format!(
+            "no barrel shifter ({} cycle(s) per bit per word",
             t.shifter.cycles
-        )
+        );
+        if t.shifter.loop_cycles > 0 {
+            s += &format!(", +{} per bit in a shift loop", t.shifter.loop_cycles);
+        }
+        s + ")"
     }
+}
+
+/// The cost-model knobs that only some targets set: library adds/shifts, saved temporaries.
+fn extra_costs_text(t: &Target) -> String {
+    let mut s = String::new();
+    if t.costs.libcall_bits > 0 {
+        s += &format!(
+            ", {}-bit adds and shifts are library calls",
+            t.costs.libcall_bits
+        );
+    }
+    if t.costs.temp > 0 {
+        s += &format!(
+            ", each shift-add temporary costs {} cycle(s) per word in saved registers",
+            t.costs.temp
+        );
+    }
+    s
 }
 
 /// The `qloop targets` table: every target's word, C int, multiplier, shifter and the cost of
