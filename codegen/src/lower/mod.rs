@@ -181,6 +181,10 @@ pub fn lower(prog: &Program, target: &Target) -> Result<Plan> {
     .help("declare its range (`output y: [LO, HI];`) so it saturates, or pin a format"))
 }
 
+/// The `ctx` of an expression with no binary point to inherit (a `let`, an unranged output):
+/// a bare constant then takes the default word's full precision.
+const NO_CTX: i32 = i32::MIN;
+
 /// Passes over the step that may refine the formats of unranged outputs.
 const UNRANGED_PASSES: usize = 4;
 
@@ -632,12 +636,12 @@ impl<'a> Lowerer<'a> {
                         (Expr::Mul(a, b, mspan), Some(claim)) => match (&**a, &**b) {
                             (Expr::Const { value: c, name, .. }, x)
                             | (x, Expr::Const { value: c, name, .. }) => {
-                                let xv = self.expr(x, 0, out)?;
+                                let xv = self.expr(x, NO_CTX, out)?;
                                 self.mul_const(xv, *c, name.clone(), Some(claim), *mspan, out)?
                             }
-                            _ => self.expr(value, 0, out)?,
+                            _ => self.expr(value, NO_CTX, out)?,
                         },
-                        _ => self.expr(value, 0, out)?,
+                        _ => self.expr(value, NO_CTX, out)?,
                     };
                     if let Some(claim) = sig.claim {
                         v = self.claim(v, claim, sig.span, out)?;
@@ -674,7 +678,7 @@ impl<'a> Lowerer<'a> {
                     return Ok(());
                 }
                 let q = self.formats[target.0];
-                let ctx = q.map_or(0, |q| q.frac);
+                let ctx = q.map_or(NO_CTX, |q| q.frac);
                 let v = match (value, q) {
                     // `x = a ± b` rounds once, to x's grid. When one operand already lies on
                     // that grid, rounding the other first gives the identical result
@@ -860,6 +864,23 @@ impl<'a> Lowerer<'a> {
     }
 
     fn constant(&mut self, c: f64, ctx: i32, span: Span, out: &mut Vec<LStmt>) -> Result<ValId> {
+        // Without a context (a `let` or an unranged output made of constants only), the
+        // constant gets the default word's full precision instead of an integer's.
+        let ctx = if ctx == NO_CTX {
+            let m = c.abs();
+            let int_bits = if m < 1.0 {
+                0
+            } else {
+                m.log2().floor() as i32 + 1
+            };
+            if m == 0.0 {
+                0
+            } else {
+                self.prog.word as i32 - 1 - int_bits
+            }
+        } else {
+            ctx
+        };
         // Prefer a binary point at which the constant is exact, up to 16 bits finer than ctx.
         let frac = (ctx..=ctx + 16)
             .find(|&f| {
@@ -1251,5 +1272,55 @@ impl Bin {
             Bin::Max => (al.max(bl), ah.max(bh)),
             Bin::Hull => (al.min(bl), ah.max(bh)),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::{compile_str, Target};
+
+    const SPEC: &str = r#"controller c {
+        period 0.01 "s";
+        rounding floor;
+        input a: [0.0, 1.05];
+        state t: [0.0, 1.7174183932661489] = 0.8587091966330744;
+        output y;
+        step {
+            let l0 = min(t * t, t * t);
+            let q = (if a < a { -3.405 } else { 0.0 }) + 1.362;
+            t = t;
+            y = q + l0;
+        }
+    }"#;
+
+    fn summary(name: &str) -> crate::lower::SigSummary {
+        let plan = compile_str(SPEC, &Target::default()).expect("compiles");
+        let i = plan
+            .prog
+            .signals
+            .iter()
+            .position(|s| s.name == name)
+            .expect("signal");
+        plan.summary[i].clone()
+    }
+
+    /// Found by random_specs: the unranged output's format came from a pass in which the
+    /// constants had no binary point to inherit, so it held up to 4 while the final pass
+    /// stored up to 4.31 (silently saturated).
+    #[test]
+    fn an_unranged_output_format_holds_what_it_receives() {
+        let y = summary("y");
+        let hi = 1.362 + 1.7174183932661489f64.powi(2);
+        assert!(y.range.1 >= hi - 1e-6, "{:?}", y.range);
+        let raw = y.format.raw_ceil(hi);
+        assert!(y.format.ty.holds(raw, raw), "{} cannot hold {hi}", y.format);
+    }
+
+    /// A `let` made of constants only keeps the word's precision, not an integer's.
+    #[test]
+    fn a_constant_only_let_is_not_rounded_to_an_integer() {
+        let q = summary("q");
+        assert!(q.err < 1e-8, "error bound {}", q.err);
+        assert!((q.range.0 - (-3.405 + 1.362)).abs() < 1e-8, "{:?}", q.range);
     }
 }
