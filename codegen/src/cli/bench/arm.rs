@@ -1,8 +1,9 @@
 //! Cortex-M under `qemu-system-arm`: the firmware's `bench_io.h`, startup code and linker
 //! script for the QEMU machine's memory map.
 
-/// `bench_io.h` on Cortex-M under QEMU: SysTick timing, semihosting text lines.
-pub(super) const IO_H: &str = r#"/* bench_io.h -- qloop bench on Cortex-M under QEMU -icount: SysTick brackets, results as
+/// The head of `bench_io.h` on Cortex-M under QEMU: SysTick timing, semihosting text lines
+/// (the rest is [`super::text_io`]).
+pub(super) const IO_HEAD: &str = r#"/* bench_io.h -- qloop bench on Cortex-M under QEMU -icount: SysTick brackets, results as
  * text lines over semihosting ("qb calib ...", "qb step ...", "qb done"). */
 #ifndef QLOOP_BENCH_IO_H
 #define QLOOP_BENCH_IO_H
@@ -47,38 +48,6 @@ static inline void bench_char(char c)
     bench_line[bench_len++] = c;
 }
 
-static inline void bench_str(const char *s)
-{
-    while (*s)
-        bench_char(*s++);
-}
-
-static inline void bench_hex32(uint32_t v)
-{
-    int k;
-    for (k = 28; k >= 0; k -= 4)
-        bench_char("0123456789abcdef"[(v >> k) & 15u]);
-}
-
-/* " " and 16 hex digits. */
-static inline void bench_value(int64_t v)
-{
-    uint64_t u = (uint64_t)v;
-    bench_char(' ');
-    bench_hex32((uint32_t)(u >> 32));
-    bench_hex32((uint32_t)u);
-}
-
-static inline void bench_value_f(float f)
-{
-    union {
-        float f;
-        uint32_t u;
-    } c;
-    c.f = f;
-    bench_value((int64_t)c.u);
-}
-
 static inline void bench_setup(void)
 {
     BENCH_SYST_RVR = 0xFFFFFFu;
@@ -87,65 +56,6 @@ static inline void bench_setup(void)
     (void)BENCH_SYST_CVR;
 }
 
-__attribute__((noinline)) static void bench_nop0(void) { __asm__ __volatile__(""); }
-__attribute__((noinline)) static void bench_nop64(void)
-{
-    __asm__ __volatile__(".rept 64\n\tnop\n\t.endr");
-}
-
-/* Least ticks of 8 runs each: the empty bracket, a call of an empty function and of one
- * with 64 nops (their difference is 64 instructions). */
-static inline void bench_calibrate(void)
-{
-    uint32_t e = 0xFFFFFFFFu, a = 0xFFFFFFFFu, b = 0xFFFFFFFFu;
-    int k;
-    for (k = 0; k < 8; k++) {
-        BENCH_TIMED((void)0);
-        if (bench_ticks < e)
-            e = bench_ticks;
-        BENCH_TIMED(bench_nop0());
-        if (bench_ticks < a)
-            a = bench_ticks;
-        BENCH_TIMED(bench_nop64());
-        if (bench_ticks < b)
-            b = bench_ticks;
-    }
-    bench_str("qb calib");
-    bench_value((int64_t)e);
-    bench_value((int64_t)a);
-    bench_value((int64_t)b);
-    bench_char('\n');
-    bench_flush();
-}
-
-static inline void bench_load(void *dst, const void *src, uint32_t n)
-{
-    /* volatile: keeps GCC from turning the loop into a memcpy call. */
-    unsigned char *d = (unsigned char *)dst;
-    const volatile unsigned char *s = (const volatile unsigned char *)src;
-    while (n--)
-        *d++ = *s++;
-}
-
-static inline void bench_record_begin(uint32_t i)
-{
-    bench_str("qb step");
-    bench_value((int64_t)i);
-    bench_value((int64_t)bench_ticks);
-}
-
-static inline void bench_record_end(void)
-{
-    bench_char('\n');
-    bench_flush();
-}
-
-static inline void bench_done(void)
-{
-    bench_str("qb done\n");
-    bench_flush();
-}
-#endif
 "#;
 
 /// Reset handler, vector table and semihosting for the QEMU machines.

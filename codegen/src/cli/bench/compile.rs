@@ -3,7 +3,7 @@
 use super::host::{mkdir, write_file};
 use super::platform::Platform;
 use super::variants::{main_c, Variant};
-use super::{arm, avr, failed, riscv};
+use super::{arm, avr, failed, riscv, text_io};
 use crate::Fail;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -35,13 +35,13 @@ pub(super) fn build(
             write_file(&dir.join("sim_protocol.h"), avr::SIM_PROTOCOL_H)?;
         }
         Platform::Qemu { flash, ram, .. } => {
-            write_file(&dir.join("bench_io.h"), arm::IO_H)?;
+            write_file(&dir.join("bench_io.h"), &text_io::io_h(arm::IO_HEAD))?;
             write_file(&dir.join("startup.c"), arm::STARTUP_C)?;
             write_file(&dir.join("link.ld"), &arm::link_ld(flash, ram))?;
             cmd.args(["startup.c", "-nostartfiles", "-Tlink.ld"]);
         }
         Platform::Riscv { .. } => {
-            write_file(&dir.join("bench_io.h"), riscv::IO_H)?;
+            write_file(&dir.join("bench_io.h"), &text_io::io_h(riscv::IO_HEAD))?;
             write_file(&dir.join("startup.c"), riscv::STARTUP_C)?;
             write_file(&dir.join("link.ld"), riscv::LINK_LD)?;
             // No C library (Debian's riscv64-unknown-elf-gcc has none): libgcc brings the

@@ -39,7 +39,7 @@
 //! * `platform`: which platform measures the target (simavr, QEMU on Cortex-M or RV32);
 //! * `variants`: each variant's sources, its input table and its `main.c`;
 //! * `avr`, `arm`, `riscv`: each platform's firmware text (and on the AVR the simavr runner
-//!   and its run);
+//!   and its run); `text_io`: the text protocol the two QEMU platforms share;
 //! * `compile`: a variant's ELF, built with the target's compiler;
 //! * `qemu`: a run under QEMU with `-icount`;
 //! * `measured`: a run's results, read from the simulator's lines;
@@ -55,6 +55,7 @@ mod platform;
 mod qemu;
 mod report;
 mod riscv;
+mod text_io;
 mod variants;
 
 use crate::Fail;
