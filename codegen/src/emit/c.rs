@@ -34,14 +34,18 @@ use crate::lower::Plan;
 use crate::qformat::IntTy;
 use std::fmt::Write;
 
-/// C99 keywords and the names `step` uses for its parameters: a spec name that collides gets
-/// a trailing underscore.
-const RESERVED: [&str; 40] = [
+/// C99's keywords (C99 6.4.1; the `_Bool`-style ones cannot collide with a spec name that
+/// does not start with `_`). Every C emitter renames a spec name that is one.
+pub const C99_KEYWORDS: [&str; 34] = [
     "auto", "break", "case", "char", "const", "continue", "default", "do", "double", "else",
     "enum", "extern", "float", "for", "goto", "if", "inline", "int", "long", "register",
     "restrict", "return", "short", "signed", "sizeof", "static", "struct", "switch", "typedef",
-    "union", "unsigned", "void", "volatile", "while", "bool", "true", "false", "self", "in", "out",
+    "union", "unsigned", "void", "volatile", "while",
 ];
+
+/// Besides the keywords: `<stdbool.h>`'s names and the parameters of `step`. A spec name that
+/// collides gets a trailing underscore.
+const RESERVED: [&str; 6] = ["bool", "true", "false", "self", "in", "out"];
 
 /// The header and source files of `plan`'s controller: `(NAME.h, NAME.c)`.
 pub fn files(plan: &Plan) -> (String, String) {
@@ -50,7 +54,7 @@ pub fn files(plan: &Plan) -> (String, String) {
 
 /// A spec name as a C identifier.
 pub fn ident(name: &str) -> String {
-    if RESERVED.contains(&name) {
+    if C99_KEYWORDS.contains(&name) || RESERVED.contains(&name) {
         format!("{name}_")
     } else {
         name.to_string()

@@ -30,43 +30,10 @@
 use crate::ir::{Cond, Expr, Program, SigId, SigKind, Stmt};
 use std::fmt::Write;
 
-/// C99 keywords, the names `step` uses for its parameters and the inline helpers: a signal
-/// name that collides gets a trailing underscore.
-const RESERVED: [&str; 44] = [
-    "auto",
-    "break",
-    "case",
-    "char",
-    "const",
-    "continue",
-    "default",
-    "do",
-    "double",
-    "else",
-    "enum",
-    "extern",
-    "float",
-    "for",
-    "goto",
-    "if",
-    "inline",
-    "int",
-    "long",
-    "register",
-    "restrict",
-    "return",
-    "short",
-    "signed",
-    "sizeof",
-    "static",
-    "struct",
-    "switch",
-    "typedef",
-    "union",
-    "unsigned",
-    "void",
-    "volatile",
-    "while",
+/// Besides C99's keywords ([`super::c::C99_KEYWORDS`]): `<stdbool.h>`'s names, the names
+/// `step` uses for its parameters and the inline helpers. A signal name that collides gets a
+/// trailing underscore.
+const RESERVED: [&str; 10] = [
     "bool",
     "true",
     "false",
@@ -86,7 +53,7 @@ pub fn source(prog: &Program) -> (String, String) {
 
 /// A signal name as a C identifier (reserved names get a trailing underscore).
 pub fn ident(name: &str) -> String {
-    if RESERVED.contains(&name) {
+    if super::c::C99_KEYWORDS.contains(&name) || RESERVED.contains(&name) {
         format!("{name}_")
     } else {
         name.to_string()

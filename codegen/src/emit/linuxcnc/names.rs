@@ -70,37 +70,7 @@ const RESERVED: &[&str] = &[
     "no",
     "true",
     "false",
-    // C99 and GNU C keywords
-    "auto",
-    "break",
-    "case",
-    "char",
-    "const",
-    "continue",
-    "default",
-    "do",
-    "double",
-    "else",
-    "enum",
-    "extern",
-    "for",
-    "goto",
-    "inline",
-    "int",
-    "long",
-    "register",
-    "restrict",
-    "return",
-    "short",
-    "sizeof",
-    "static",
-    "struct",
-    "switch",
-    "typedef",
-    "union",
-    "void",
-    "volatile",
-    "while",
+    // GNU C keywords (C99's: `c::C99_KEYWORDS`)
     "asm",
     "typeof",
     // predefined lower-case object-like macros (gcc -dM -E with halcompile's flags and headers)
@@ -131,7 +101,7 @@ pub fn hal_name(spec_name: &str) -> Option<String> {
 
 /// Why `name` cannot be a pin or param of component `comp`, if it cannot.
 pub fn reserved(name: &str, spec: &str) -> Option<String> {
-    if RESERVED.contains(&name) {
+    if RESERVED.contains(&name) || crate::emit::c::C99_KEYWORDS.contains(&name) {
         return Some(format!(
             "`{name}` is reserved in a halcompile component (a halcompile, HAL or C name)"
         ));
