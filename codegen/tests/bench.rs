@@ -344,7 +344,9 @@ fn bench_rejects_zero_steps() {
         "--steps",
         "0",
     ]);
-    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("--steps") && err.contains("1..="), "{err}");
 }
 
 /// The cost model's choices, checked in exact simavr cycles: on atmega328p no seed spec's

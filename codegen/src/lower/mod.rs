@@ -174,11 +174,18 @@ pub fn lower(prog: &Program, target: &Target) -> Result<Plan> {
     Err(Diag::new(
         prog.sig(id).span,
         format!(
-            "could not find a format for the unranged output `{}` that holds every value it              receives",
+            "could not find a format for the unranged output `{}` that holds every value it \
+             receives",
             prog.sig(id).name
         ),
     )
     .help("declare its range (`output y: [LO, HI];`) so it saturates, or pin a format"))
+}
+
+/// Widens `id`'s hull in `map` to include `[lo, hi]`.
+fn widen(map: &mut HashMap<SigId, (f64, f64)>, id: SigId, (lo, hi): (f64, f64)) {
+    let e = map.entry(id).or_insert((lo, hi));
+    *e = (e.0.min(lo), e.1.max(hi));
 }
 
 /// The `ctx` of an expression with no binary point to inherit (a `let`, an unranged output):
@@ -733,9 +740,7 @@ impl<'a> Lowerer<'a> {
                 ty: x.ty,
                 frac: x.frac,
             };
-            let (lo, hi) = (q.value(x.lo), q.value(x.hi));
-            let e = self.seen.entry(target).or_insert((lo, hi));
-            *e = (e.0.min(lo), e.1.max(hi));
+            widen(&mut self.seen, target, (q.value(x.lo), q.value(x.hi)));
             self.env.insert(
                 target,
                 Abs {
@@ -750,11 +755,8 @@ impl<'a> Lowerer<'a> {
         let mut v = self.rescale(v, q.frac, span, out)?;
         let (lo, hi) = self.bounds(target);
         let y = self.v(v).clone();
-        {
-            let (l, h) = (y.lo as f64 * pow2(-y.frac), y.hi as f64 * pow2(-y.frac));
-            let e = self.received.entry(target).or_insert((l, h));
-            *e = (e.0.min(l), e.1.max(h));
-        }
+        let received = (y.lo as f64 * pow2(-y.frac), y.hi as f64 * pow2(-y.frac));
+        widen(&mut self.received, target, received);
         let mut err = y.err;
         if self.prog.sig(target).unsaturated {
             // No clamp: the declared range is a claim the prover must discharge.
@@ -775,11 +777,7 @@ impl<'a> Lowerer<'a> {
         self.vals[v.0].err = err;
         let v = self.cast(v, q.ty, out);
         let z = self.v(v).clone();
-        {
-            let (l, h) = (q.value(z.lo), q.value(z.hi));
-            let e = self.seen.entry(target).or_insert((l, h));
-            *e = (e.0.min(l), e.1.max(h));
-        }
+        widen(&mut self.seen, target, (q.value(z.lo), q.value(z.hi)));
         out.push(LStmt::Store(target, v));
         self.env.insert(
             target,
@@ -866,20 +864,10 @@ impl<'a> Lowerer<'a> {
     fn constant(&mut self, c: f64, ctx: i32, span: Span, out: &mut Vec<LStmt>) -> Result<ValId> {
         // Without a context (a `let` or an unranged output made of constants only), the
         // constant gets the default word's full precision instead of an integer's.
-        let ctx = if ctx == NO_CTX {
-            let m = c.abs();
-            let int_bits = if m < 1.0 {
-                0
-            } else {
-                m.log2().floor() as i32 + 1
-            };
-            if m == 0.0 {
-                0
-            } else {
-                self.prog.word as i32 - 1 - int_bits
-            }
-        } else {
-            ctx
+        let ctx = match c.abs() {
+            _ if ctx != NO_CTX => ctx,
+            0.0 => 0,
+            m => self.prog.word as i32 - 1 - (m.log2().floor() as i32 + 1).max(0),
         };
         // Prefer a binary point at which the constant is exact, up to 16 bits finer than ctx.
         let frac = (ctx..=ctx + 16)

@@ -7,21 +7,6 @@ use crate::qformat::Rounding;
 use crate::report::g;
 use std::fmt::Write;
 
-/// The controller's C, one file: `NAME.h`, then `NAME.c` without its `#include "NAME.h"` and
-/// without the Frama-C entry point (an analysis harness, not part of the component).
-fn controller(plan: &Plan) -> String {
-    let (h, src) = c::files(plan);
-    let n = &plan.prog.name;
-    let mut src = src.replace(&format!("#include \"{n}.h\"\n"), "");
-    let (begin, end) = ("\n#ifdef __FRAMAC__\n", "#endif /* __FRAMAC__ */\n");
-    if let (Some(a), Some(b)) = (src.find(begin), src.rfind(end)) {
-        if a < b {
-            src.replace_range(a..b + end.len(), "");
-        }
-    }
-    format!("{h}\n{src}")
-}
-
 /// The names pushed away around the controller and glue: every HAL name and variable of the
 /// component, `data`, and every identifier the controller takes from the spec.
 fn pushed(plan: &Plan, l: &Layout) -> Vec<String> {
@@ -69,7 +54,7 @@ pub(super) fn c_section(plan: &Plan, l: &Layout) -> String {
          {n}.c\n * without its #include of the header and without its Frama-C entry point. */",
         MARKERS[0], plan.target.name
     );
-    o.push_str(&controller(plan));
+    o.push_str(&c::single_unit(plan));
     let _ = writeln!(o, "{}\n\n{}", MARKERS[1], MARKERS[2]);
     let _ = writeln!(
         o,
