@@ -203,6 +203,17 @@ impl CmpOp {
         }
     }
 
+    /// The operator with its operands swapped: `a OP b ⟺ b OP.mirror() a`.
+    pub fn mirror(self) -> Self {
+        match self {
+            CmpOp::Lt => CmpOp::Gt,
+            CmpOp::Le => CmpOp::Ge,
+            CmpOp::Gt => CmpOp::Lt,
+            CmpOp::Ge => CmpOp::Le,
+            CmpOp::Eq | CmpOp::Ne => self,
+        }
+    }
+
     /// Rust spelling.
     pub fn symbol(self) -> &'static str {
         match self {

@@ -76,20 +76,24 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
         .enumerate()
         .map(|(i, s)| {
             let sm = &plan.summary[i];
-            let err = if s.kind == SigKind::Input {
+            let err = if s.kind == SigKind::Input && sm.err == 0.0 {
                 "exact".to_string()
             } else {
-                format!("{:.3e}", sm.err)
+                bound(sm.err)
             };
-            let pct = if s.kind == SigKind::Input || sm.range.1 <= sm.range.0 {
+            let pct = if sm.err == 0.0 || sm.range.1 <= sm.range.0 {
                 String::new()
             } else {
-                format!("{:.2e}%", 100.0 * sm.err / (sm.range.1 - sm.range.0))
+                let p = 100.0 * sm.err / (sm.range.1 - sm.range.0);
+                format!(
+                    "{}%",
+                    directed(p, true, |x| format!("{x:.2e}"), |x| sci_unit(x, 2))
+                )
             };
             [
                 s.name.clone(),
                 kind_name(s.kind).to_string(),
-                format!("[{}, {}]", g(sm.range.0), g(sm.range.1)),
+                range_text(sm.range.0, sm.range.1),
                 s.unit.clone().unwrap_or_default(),
                 sm.format.to_string(),
                 format!("{:.3e}", sm.format.lsb()),
@@ -276,6 +280,59 @@ pub fn table(head: &[String], rows: &[Vec<String>]) -> String {
         let _ = writeln!(o, "{}", line(r));
     }
     o
+}
+
+/// `v` as [`g`] prints it, rounded down (`up = false`) or up: a printed range end or bound is
+/// never inside the true one. Printing rounds to nearest, so this steps one unit of the last
+/// printed digit outward where that was not already so.
+fn directed(v: f64, up: bool, fmt: impl Fn(f64) -> String, unit: impl Fn(f64) -> f64) -> String {
+    let mut s = fmt(v);
+    for _ in 0..4 {
+        let p: f64 = s.parse().unwrap_or(v);
+        if (up && p >= v) || (!up && p <= v) || !v.is_finite() {
+            return s;
+        }
+        let u = unit(p);
+        s = fmt(if up { p + u } else { p - u });
+    }
+    s
+}
+
+/// One unit of the last digit of `{:.Ne}` formatting at `v`'s magnitude.
+fn sci_unit(v: f64, digits: i32) -> f64 {
+    if v == 0.0 {
+        return f64::MIN_POSITIVE;
+    }
+    10f64.powi(v.abs().log10().floor() as i32 - digits)
+}
+
+/// [`g`], rounded down.
+pub fn g_down(v: f64) -> String {
+    directed(v, false, g, g_unit)
+}
+
+/// [`g`], rounded up.
+pub fn g_up(v: f64) -> String {
+    directed(v, true, g, g_unit)
+}
+
+fn g_unit(v: f64) -> f64 {
+    if v.abs() >= 1e-3 && v.abs() < 1e6 {
+        1e-6
+    } else {
+        sci_unit(v, 4)
+    }
+}
+
+/// A range `[lo, hi]` as printed in reports and generated docs: ends rounded outward.
+pub fn range_text(lo: f64, hi: f64) -> String {
+    format!("[{}, {}]", g_down(lo), g_up(hi))
+}
+
+/// An error bound (non-negative) to four significant digits, rounded up: what qloop prints as
+/// a bound is never below the bound it computed.
+pub fn bound(v: f64) -> String {
+    directed(v, true, |x| format!("{x:.3e}"), |x| sci_unit(x, 3))
 }
 
 /// Compact number formatting for tables and generated docs.

@@ -82,6 +82,23 @@ impl Checker {
                     if !(v > 0.0 && v.is_finite()) {
                         return Err(Diag::new(value.span(), "the period must be positive"));
                     }
+                    // The generated code exports the period as an integer, PERIOD_US.
+                    let us = v * 1e6;
+                    if us < 0.5 || (us - us.round()).abs() > 1e-6 * us {
+                        return Err(Diag::new(
+                            value.span(),
+                            format!(
+                                "the period {} s is not a whole number of microseconds",
+                                crate::report::g(v)
+                            ),
+                        )
+                        .label("not whole µs")
+                        .help(format!(
+                            "the generated code exports the period as the integer PERIOD_US, \
+                             which would be {}; write a whole number of microseconds",
+                            us.round()
+                        )));
+                    }
                     period = Some((v, *span));
                     self.consts.insert("period".into(), (v, *span));
                 }
@@ -484,122 +501,136 @@ impl Checker {
 
     // ---- expressions -----------------------------------------------------------------
 
+    /// One expression. A thin dispatcher: each form has its own function, so that the frame
+    /// this recursion repeats per nesting level stays small (see `spec::scan`).
     fn expr(&self, e: &SExpr) -> Result<Expr> {
-        let out = match e {
-            SExpr::Lit(l) => Expr::Const {
+        match e {
+            SExpr::Lit(l) => Ok(Expr::Const {
                 value: lit_value(&l.lit)?,
                 name: None,
                 span: l.span(),
-            },
-            SExpr::Paren(p) => self.expr(&p.expr)?,
-            SExpr::Group(g) => self.expr(&g.expr)?,
-            SExpr::Path(_) => {
-                let ident = path_ident(e)
-                    .ok_or_else(|| Diag::new(e.span(), "expected a name"))?;
-                let n = ident.to_string();
-                if let Some(id) = self.lookup(&n) {
-                    let s = &self.signals[id.0];
-                    if s.kind == SigKind::Output && !self.assigned.contains(&id) {
-                        return Err(Diag::new(
-                            ident.span(),
-                            format!("output `{n}` is read before it is assigned"),
-                        ));
-                    }
-                    Expr::Var(id, ident.span())
-                } else if let Some(&(v, _)) = self.consts.get(&n) {
-                    if v.is_nan() {
-                        return Err(Diag::new(ident.span(), "`period` is used before it is declared"));
-                    }
-                    Expr::Const {
-                        value: v,
-                        name: Some(n),
-                        span: ident.span(),
-                    }
-                } else {
-                    return Err(unknown(&ident));
-                }
-            }
-            SExpr::Unary(u) => match u.op {
-                UnOp::Neg(_) => fold1(Expr::Neg(Box::new(self.expr(&u.expr)?))),
-                _ => {
-                    return Err(Diag::new(u.op.span(), "unsupported unary operator")
-                        .help("only `-x` is an arithmetic unary operator; `!` belongs in conditions"))
-                }
-            },
-            SExpr::Binary(b) => {
-                let op_span = b.op.span();
-                let mk = |f: fn(Box<Expr>, Box<Expr>) -> Expr| -> Result<Expr> {
-                    Ok(fold1(f(Box::new(self.expr(&b.left)?), Box::new(self.expr(&b.right)?))))
-                };
-                match b.op {
-                    BinOp::Add(_) => mk(Expr::Add)?,
-                    BinOp::Sub(_) => mk(Expr::Sub)?,
-                    BinOp::Mul(_) => fold1(Expr::Mul(
-                        Box::new(self.expr(&b.left)?),
-                        Box::new(self.expr(&b.right)?),
-                        op_span,
-                    )),
-                    BinOp::Div(_) | BinOp::Rem(_) => return Err(division(op_span)),
-                    BinOp::Lt(_)
-                    | BinOp::Le(_)
-                    | BinOp::Gt(_)
-                    | BinOp::Ge(_)
-                    | BinOp::Eq(_)
-                    | BinOp::Ne(_)
-                    | BinOp::And(_)
-                    | BinOp::Or(_) => {
-                        return Err(Diag::new(op_span, "a comparison is not a number")
-                            .help("use comparisons in `if` conditions; `if c { a } else { b }` selects a value"))
-                    }
-                    _ => {
-                        return Err(Diag::new(op_span, "unsupported operator")
-                            .help("qloop chooses shifts and bit operations itself: write `+ - *`, `min`, `max`, `clamp`"))
-                    }
-                }
-            }
+            }),
+            SExpr::Paren(p) => self.expr(&p.expr),
+            SExpr::Group(g) => self.expr(&g.expr),
+            SExpr::Path(_) => self.name_expr(e),
+            SExpr::Unary(u) => self.unary_expr(u),
+            SExpr::Binary(b) => self.binary_expr(b),
             SExpr::Call(c) => {
                 let f = path_ident(&c.func)
                     .ok_or_else(|| Diag::new(c.func.span(), "unknown function"))?;
                 let args: Vec<&SExpr> = c.args.iter().collect();
-                self.builtin(&f, &args, c.span())?
+                self.builtin(&f, &args, c.span())
             }
             SExpr::MethodCall(m) => {
                 let mut args: Vec<&SExpr> = vec![&m.receiver];
                 args.extend(m.args.iter());
-                self.builtin(&m.method, &args, m.span())?
+                self.builtin(&m.method, &args, m.span())
             }
-            SExpr::If(i) => {
-                let cond = self.cond(&i.cond)?;
-                let a = block_value(&i.then_branch)?;
-                let b = match &i.else_branch {
-                    Some((_, e)) => match &**e {
-                        SExpr::Block(b) => block_value(&b.block)?,
-                        other => other,
-                    },
-                    None => {
-                        return Err(Diag::new(i.span(), "an `if` used as a value needs an `else`"))
-                    }
-                };
-                Expr::Select(Box::new(cond), Box::new(self.expr(a)?), Box::new(self.expr(b)?))
+            SExpr::If(i) => self.if_expr(i),
+            other => Err(unsupported_expr(other)),
+        }
+    }
+
+    fn name_expr(&self, e: &SExpr) -> Result<Expr> {
+        let ident = path_ident(e).ok_or_else(|| Diag::new(e.span(), "expected a name"))?;
+        let n = ident.to_string();
+        if let Some(id) = self.lookup(&n) {
+            let s = &self.signals[id.0];
+            if s.kind == SigKind::Output && !self.assigned.contains(&id) {
+                return Err(Diag::new(
+                    ident.span(),
+                    format!("output `{n}` is read before it is assigned"),
+                ));
             }
-            other => {
-                return Err(Diag::new(other.span(), "unsupported expression")
-                    .help("expressions use numbers, names, `+ - *`, unary `-`, `min`, `max`, `clamp` and `if .. else`"))
+            return Ok(Expr::Var(id, ident.span()));
+        }
+        match self.consts.get(&n) {
+            Some(&(v, _)) if v.is_nan() => Err(Diag::new(
+                ident.span(),
+                "`period` is used before it is declared",
+            )),
+            Some(&(v, _)) => Ok(Expr::Const {
+                value: v,
+                name: Some(n),
+                span: ident.span(),
+            }),
+            None => Err(unknown(&ident)),
+        }
+    }
+
+    fn unary_expr(&self, u: &syn::ExprUnary) -> Result<Expr> {
+        match u.op {
+            UnOp::Neg(_) => fold1(Expr::Neg(Box::new(self.expr(&u.expr)?)), u.op.span()),
+            _ => Err(Diag::new(u.op.span(), "unsupported unary operator")
+                .help("only `-x` is an arithmetic unary operator; `!` belongs in conditions")),
+        }
+    }
+
+    fn binary_expr(&self, b: &syn::ExprBinary) -> Result<Expr> {
+        let op_span = b.op.span();
+        let make: fn(Box<Expr>, Box<Expr>, Span) -> Expr = match b.op {
+            BinOp::Add(_) => |a, b, _| Expr::Add(a, b),
+            BinOp::Sub(_) => |a, b, _| Expr::Sub(a, b),
+            BinOp::Mul(_) => Expr::Mul,
+            BinOp::Div(_) | BinOp::Rem(_) => return Err(division(op_span)),
+            BinOp::Lt(_)
+            | BinOp::Le(_)
+            | BinOp::Gt(_)
+            | BinOp::Ge(_)
+            | BinOp::Eq(_)
+            | BinOp::Ne(_)
+            | BinOp::And(_)
+            | BinOp::Or(_) => {
+                return Err(Diag::new(op_span, "a comparison is not a number").help(
+                    "use comparisons in `if` conditions; `if c { a } else { b }` selects a value",
+                ))
+            }
+            _ => {
+                return Err(Diag::new(op_span, "unsupported operator").help(
+                    "qloop chooses shifts and bit operations itself: write `+ - *`, `min`, `max`, `clamp`",
+                ))
             }
         };
-        Ok(out)
+        let (l, r) = (self.expr(&b.left)?, self.expr(&b.right)?);
+        fold1(make(Box::new(l), Box::new(r), op_span), op_span)
+    }
+
+    fn if_expr(&self, i: &syn::ExprIf) -> Result<Expr> {
+        let cond = self.cond(&i.cond)?;
+        let a = block_value(&i.then_branch)?;
+        let b = match &i.else_branch {
+            Some((_, e)) => match &**e {
+                SExpr::Block(b) => block_value(&b.block)?,
+                other => other,
+            },
+            None => return Err(Diag::new(i.span(), "an `if` used as a value needs an `else`")),
+        };
+        Ok(Expr::Select(
+            Box::new(cond),
+            Box::new(self.expr(a)?),
+            Box::new(self.expr(b)?),
+        ))
     }
 
     fn builtin(&self, f: &syn::Ident, args: &[&SExpr], span: Span) -> Result<Expr> {
         let n = f.to_string();
-        let want =
-            match n.as_str() {
-                "min" | "max" => 2,
-                "clamp" => 3,
-                _ => return Err(Diag::new(f.span(), format!("unknown function `{n}`")).help(
-                    "the built-in functions are `min(a, b)`, `max(a, b)` and `clamp(x, lo, hi)`",
-                )),
-            };
+        let want = match n.as_str() {
+            "min" | "max" => 2,
+            "clamp" => 3,
+            "div" | "recip" | "div_euclid" | "rem" | "rem_euclid" | "checked_div"
+            | "wrapping_div" | "saturating_div" | "inv" => {
+                return Err(Diag::new(f.span(), format!("`{n}` divides: division is not allowed in a qloop spec"))
+                    .label("division")
+                    .help(DIVISION_HELP))
+            }
+            _ => {
+                return Err(
+                    Diag::new(f.span(), format!("unknown function `{n}`")).help(
+                        "the built-in functions are `min(a, b)`, `max(a, b)` and `clamp(x, lo, hi)`",
+                    ),
+                )
+            }
+        };
         if args.len() != want {
             return Err(Diag::new(span, format!("`{n}` takes {want} arguments")));
         }
@@ -609,9 +640,9 @@ impl Checker {
             it.next().unwrap_or_else(zero),
             it.next().unwrap_or_else(zero),
         );
-        Ok(match n.as_str() {
-            "min" => fold1(Expr::Min(x, y)),
-            "max" => fold1(Expr::Max(x, y)),
+        match n.as_str() {
+            "min" => fold1(Expr::Min(x, y), span),
+            "max" => fold1(Expr::Max(x, y), span),
             _ => {
                 let hi = it.next().unwrap_or_else(zero);
                 if let (Expr::Const { value: l, .. }, Expr::Const { value: h, .. }) = (&*y, &*hi) {
@@ -623,9 +654,9 @@ impl Checker {
                     }
                 }
                 // clamp(x, lo, hi) = min(max(x, lo), hi): total, never panics.
-                fold1(Expr::Min(Box::new(fold1(Expr::Max(x, y))), hi))
+                fold1(Expr::Min(Box::new(fold1(Expr::Max(x, y), span)?), hi), span)
             }
-        })
+        }
     }
 
     fn cond(&self, e: &SExpr) -> Result<Cond> {
@@ -683,8 +714,22 @@ fn zero() -> Box<Expr> {
     })
 }
 
-/// Folds an operator node whose operands are all constants.
-fn fold1(e: Expr) -> Expr {
+/// Folds an operator node whose operands are all constants; a result beyond the f64 range
+/// (`1e300 * 1e300`) is an error at `span`, the operator.
+fn fold1(e: Expr, span: Span) -> Result<Expr> {
+    let e = fold_value(e);
+    match e {
+        Expr::Const { value, .. } if !value.is_finite() => Err(Diag::new(
+            span,
+            "this constant expression overflows: its value is beyond the f64 range (±1.8e308)",
+        )
+        .label("overflows")
+        .help("use smaller constants: scale the units, or write the product's value directly")),
+        e => Ok(e),
+    }
+}
+
+fn fold_value(e: Expr) -> Expr {
     let c = |x: &Expr| match x {
         Expr::Const { value, .. } => Some(*value),
         _ => None,
@@ -728,6 +773,12 @@ fn span_of(e: &Expr) -> Span {
         }
         Expr::Select(_, a, _) => span_of(a),
     }
+}
+
+fn unsupported_expr(e: &SExpr) -> Diag {
+    Diag::new(e.span(), "unsupported expression").help(
+        "expressions use numbers, names, `+ - *`, unary `-`, `min`, `max`, `clamp` and `if .. else`",
+    )
 }
 
 fn block_value(b: &syn::Block) -> Result<&SExpr> {

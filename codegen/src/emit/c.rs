@@ -155,12 +155,11 @@ fn header(plan: &Plan) -> String {
             let sm = &plan.summary[id.0];
             let _ = writeln!(
                 o,
-                "    {} {}; /* {}: [{}, {}] {}, {} */",
+                "    {} {}; /* {}: {} {}, {} */",
                 c_ty(plan.format(*id).ty),
                 ident(&s.name),
                 super::kind_name(kind),
-                crate::report::g(sm.range.0),
-                crate::report::g(sm.range.1),
+                crate::report::range_text(sm.range.0, sm.range.1),
                 s.unit.as_deref().unwrap_or(""),
                 sm.format
             );
@@ -297,6 +296,14 @@ fn body(plan: &Plan, include: bool) -> String {
         o,
         "void {n}_step({n}_state *self, const {n}_inputs *in, {n}_outputs *out)\n{{"
     );
+    // A controller without states or inputs still takes both pointers (one signature for
+    // every controller); say that they are unused on purpose.
+    if states.is_empty() {
+        let _ = writeln!(o, "    (void)self;");
+    }
+    if ids(plan, SigKind::Input).is_empty() {
+        let _ = writeln!(o, "    (void)in;");
+    }
     for id in &states {
         let f = ident(&p.sig(*id).name);
         let _ = writeln!(o, "    {} {f} = self->{f};", c_ty(plan.format(*id).ty));

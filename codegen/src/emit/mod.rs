@@ -10,7 +10,7 @@ pub mod rust;
 
 use crate::ir::{SigId, SigKind};
 use crate::lower::Plan;
-use crate::report::g;
+use crate::report::{bound, range_text};
 use proc_macro2::TokenStream;
 
 /// Formats emitted tokens as Rust source (rustfmt-like, via prettyplease).
@@ -42,15 +42,14 @@ pub fn module_doc(plan: &Plan, what: &str) -> String {
         }
         let sm = &plan.summary[i];
         d.push_str(&format!(
-            "| `{}` | {} | [{}, {}] {} | {} | {:.3e} | {:.3e} |\n",
+            "| `{}` | {} | {} {} | {} | {:.3e} | {} |\n",
             s.name,
             kind_name(s.kind),
-            g(sm.range.0),
-            g(sm.range.1),
+            range_text(sm.range.0, sm.range.1),
             s.unit.as_deref().unwrap_or(""),
             sm.format,
             sm.format.lsb(),
-            sm.err
+            bound(sm.err)
         ));
     }
     d
@@ -77,9 +76,8 @@ pub fn sig_doc(plan: &Plan, id: SigId) -> String {
         d.push_str("\n\n");
     }
     d.push_str(&format!(
-        "Range [{}, {}] {}, format {}.",
-        g(sm.range.0),
-        g(sm.range.1),
+        "Range {} {}, format {}.",
+        range_text(sm.range.0, sm.range.1),
         s.unit.as_deref().unwrap_or(""),
         sm.format
     ));

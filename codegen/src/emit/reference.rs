@@ -166,94 +166,146 @@ fn sat(prog: &Program, id: crate::ir::SigId, e: TokenStream) -> TokenStream {
     }
 }
 
+/// Operator nesting above which a subexpression is hoisted into a `let` of its own. Keeps
+/// the emitted source shallow (it is re-parsed by `syn` and compiled by rustc) for long
+/// chains such as a 200-term sum; the seed specs nest far less, so they read as written.
+const MAX_INLINE: usize = 16;
+
 fn block(prog: &Program, stmts: &[Stmt]) -> TokenStream {
-    let parts = stmts.iter().map(|s| match s {
-        Stmt::Assign { target, value, .. } => {
-            let sig = prog.sig(*target);
-            let n = format_ident!("{}", sig.name);
-            let v = expr(prog, value);
-            if sig.kind == SigKind::Local {
-                quote! { let #n: f64 = #v; }
-            } else {
-                let v = sat(prog, *target, v);
-                quote! { #n = #v; }
+    let parts = stmts.iter().map(|s| {
+        let mut x = Exprs {
+            prog,
+            pre: Vec::new(),
+        };
+        let stmt = match s {
+            Stmt::Assign { target, value, .. } => {
+                let sig = prog.sig(*target);
+                let n = format_ident!("{}", sig.name);
+                let v = x.expr(value).0;
+                if sig.kind == SigKind::Local {
+                    quote! { let #n: f64 = #v; }
+                } else {
+                    let v = sat(prog, *target, v);
+                    quote! { #n = #v; }
+                }
             }
-        }
-        Stmt::If { cond: c, then, els } => {
-            let c = cond(prog, c);
-            let t = block(prog, then);
-            if els.is_empty() {
-                quote! { if #c { #t } }
-            } else {
-                let e = block(prog, els);
-                quote! { if #c { #t } else { #e } }
+            Stmt::If { cond: c, then, els } => {
+                let c = x.cond(c).0;
+                let t = block(prog, then);
+                if els.is_empty() {
+                    quote! { if #c { #t } }
+                } else {
+                    let e = block(prog, els);
+                    quote! { if #c { #t } else { #e } }
+                }
             }
-        }
+        };
+        let pre = x.pre;
+        quote! { #(#pre)* #stmt }
     });
     quote! { #(#parts)* }
 }
 
-fn expr(prog: &Program, e: &Expr) -> TokenStream {
-    let x = |e: &Expr| expr(prog, e);
-    match e {
-        Expr::Const { value, .. } => {
-            let v = f(*value);
-            quote! { (#v) }
-        }
-        Expr::Var(id, _) => {
-            let n = format_ident!("{}", prog.sig(*id).name);
-            quote! { #n }
-        }
-        Expr::Neg(a) => {
-            let a = x(a);
-            quote! { (-#a) }
-        }
-        Expr::Add(a, b) => {
-            let (a, b) = (x(a), x(b));
-            quote! { (#a + #b) }
-        }
-        Expr::Sub(a, b) => {
-            let (a, b) = (x(a), x(b));
-            quote! { (#a - #b) }
-        }
-        Expr::Mul(a, b, _) => {
-            let (a, b) = (x(a), x(b));
-            quote! { (#a * #b) }
-        }
-        Expr::Min(a, b) => {
-            let (a, b) = (x(a), x(b));
-            quote! { (#a).min(#b) }
-        }
-        Expr::Max(a, b) => {
-            let (a, b) = (x(a), x(b));
-            quote! { (#a).max(#b) }
-        }
-        Expr::Select(c, a, b) => {
-            // Evaluate the condition and both arms (as the plan does), then select.
-            let (c, a, b) = (cond(prog, c), x(a), x(b));
-            quote! { { let _c: bool = #c; let _a: f64 = #a; let _b: f64 = #b; if _c { _a } else { _b } } }
-        }
-    }
+/// Emits the expressions of one statement; subexpressions nested deeper than [`MAX_INLINE`]
+/// become `let _rN: f64 = ..;` statements in `pre`, emitted before the statement. The
+/// reference's arithmetic is pure, so evaluating a subexpression earlier changes nothing.
+struct Exprs<'a> {
+    prog: &'a Program,
+    pre: Vec<TokenStream>,
 }
 
-fn cond(prog: &Program, c: &Cond) -> TokenStream {
-    match c {
-        Cond::Cmp(op, a, b) => {
-            let (a, b) = (expr(prog, a), expr(prog, b));
-            let op: TokenStream = op.symbol().parse().unwrap_or_default();
-            quote! { #a #op #b }
+impl Exprs<'_> {
+    /// The expression's tokens and their nesting depth.
+    fn expr(&mut self, e: &Expr) -> (TokenStream, usize) {
+        let (t, d) = self.expr_inline(e);
+        if d <= MAX_INLINE {
+            return (t, d);
         }
-        Cond::And(a, b) => {
-            let (a, b) = (cond(prog, a), cond(prog, b));
-            quote! { ((#a) & (#b)) }
+        let tmp = format_ident!("_r{}", self.pre.len());
+        self.pre.push(quote! { let #tmp: f64 = #t; });
+        (quote! { #tmp }, 1)
+    }
+
+    fn expr_inline(&mut self, e: &Expr) -> (TokenStream, usize) {
+        let two = |s: &mut Self, a: &Expr, b: &Expr| {
+            let ((a, da), (b, db)) = (s.expr(a), s.expr(b));
+            (a, b, da.max(db) + 1)
+        };
+        match e {
+            Expr::Const { value, .. } => {
+                let v = f(*value);
+                (quote! { (#v) }, 1)
+            }
+            Expr::Var(id, _) => {
+                let n = format_ident!("{}", self.prog.sig(*id).name);
+                (quote! { #n }, 1)
+            }
+            Expr::Neg(a) => {
+                let (a, d) = self.expr(a);
+                (quote! { (-#a) }, d + 1)
+            }
+            Expr::Add(a, b) => {
+                let (a, b, d) = two(self, a, b);
+                (quote! { (#a + #b) }, d)
+            }
+            Expr::Sub(a, b) => {
+                let (a, b, d) = two(self, a, b);
+                (quote! { (#a - #b) }, d)
+            }
+            Expr::Mul(a, b, _) => {
+                let (a, b, d) = two(self, a, b);
+                (quote! { (#a * #b) }, d)
+            }
+            Expr::Min(a, b) => {
+                let (a, b, d) = two(self, a, b);
+                (quote! { (#a).min(#b) }, d)
+            }
+            Expr::Max(a, b) => {
+                let (a, b, d) = two(self, a, b);
+                (quote! { (#a).max(#b) }, d)
+            }
+            Expr::Select(c, a, b) => {
+                // Evaluate the condition and both arms (as the plan does), then select.
+                let (c, dc) = self.cond(c);
+                let (a, b, d) = two(self, a, b);
+                (
+                    quote! { { let _c: bool = #c; let _a: f64 = #a; let _b: f64 = #b; if _c { _a } else { _b } } },
+                    d.max(dc + 1),
+                )
+            }
         }
-        Cond::Or(a, b) => {
-            let (a, b) = (cond(prog, a), cond(prog, b));
-            quote! { ((#a) | (#b)) }
+    }
+
+    /// The condition's tokens and their nesting depth; hoisted like [`Self::expr`].
+    fn cond(&mut self, c: &Cond) -> (TokenStream, usize) {
+        let (t, d) = self.cond_inline(c);
+        if d <= MAX_INLINE {
+            return (t, d);
         }
-        Cond::Not(a) => {
-            let a = cond(prog, a);
-            quote! { !(#a) }
+        let tmp = format_ident!("_r{}", self.pre.len());
+        self.pre.push(quote! { let #tmp: bool = #t; });
+        (quote! { #tmp }, 1)
+    }
+
+    fn cond_inline(&mut self, c: &Cond) -> (TokenStream, usize) {
+        match c {
+            Cond::Cmp(op, a, b) => {
+                let ((a, da), (b, db)) = (self.expr(a), self.expr(b));
+                let op: TokenStream = op.symbol().parse().unwrap_or_default();
+                (quote! { #a #op #b }, da.max(db) + 1)
+            }
+            Cond::And(a, b) => {
+                let ((a, da), (b, db)) = (self.cond(a), self.cond(b));
+                (quote! { ((#a) & (#b)) }, da.max(db) + 2)
+            }
+            Cond::Or(a, b) => {
+                let ((a, da), (b, db)) = (self.cond(a), self.cond(b));
+                (quote! { ((#a) | (#b)) }, da.max(db) + 2)
+            }
+            Cond::Not(a) => {
+                let (a, d) = self.cond(a);
+                (quote! { !(#a) }, d + 1)
+            }
         }
     }
 }

@@ -54,7 +54,8 @@ pub struct SigSummary {
     pub range: (f64, f64),
     /// Its format (storage format, or the working format of a `let`).
     pub format: QFormat,
-    /// Worst-case error of one step against real arithmetic (0 for inputs).
+    /// Worst-case error of one step against real arithmetic (for an input: the gap its entry
+    /// clamp leaves at a range bound that is off the grid, else 0).
     pub err: f64,
 }
 
@@ -209,8 +210,35 @@ fn choose_format(s: &Signal, word: u32) -> Result<QFormat> {
             )
             .help("use fewer fraction bits or a wider word, or remove the pin"));
         }
-        return Ok(p);
     }
+    let q = match s.pin {
+        Some(p) => p,
+        None => choose_format_unchecked(s, word, lo, hi)?,
+    };
+    if s.range.is_some() && q.raw_floor(hi) <= q.raw_ceil(lo) {
+        return Err(Diag::new(
+            s.span,
+            format!(
+                "the range [{}, {}] of `{}` is narrower than one step of its format {q} \
+                 (LSB {:.3e}): every value would be stored as {}",
+                crate::report::g(lo),
+                crate::report::g(hi),
+                s.name,
+                q.lsb(),
+                crate::report::g(q.value(q.raw_ceil(lo)))
+            ),
+        )
+        .label("too narrow to represent")
+        .help(
+            "change the signal's unit so that its range spans many LSBs (e.g. µN instead of \
+             kN), or pin a format with more fraction bits, `#[q(i64, 60)]`",
+        ));
+    }
+    Ok(q)
+}
+
+/// The format of an unpinned signal, before the check that its range spans two raw values.
+fn choose_format_unchecked(s: &Signal, word: u32, lo: f64, hi: f64) -> Result<QFormat> {
     let fit = |ty: IntTy| QFormat::best_for(ty, lo, hi);
     let q = match s.lsb {
         Some(lsb) => {
@@ -274,6 +302,7 @@ struct Lowered {
     body: Vec<LStmt>,
     env: HashMap<SigId, Abs>,
     locals: HashMap<SigId, ValId>,
+    inputs: HashMap<SigId, ValId>,
     seen: HashMap<SigId, (f64, f64)>,
     received: HashMap<SigId, (f64, f64)>,
     mults: Vec<MulNote>,
@@ -311,7 +340,9 @@ impl Lowered {
                             .or_else(|| self.seen.get(&id).copied())
                             .unwrap_or((0.0, 0.0));
                         let err = match s.kind {
-                            SigKind::Input => 0.0,
+                            SigKind::Input => {
+                                self.inputs.get(&id).map_or(0.0, |v| self.vals[v.0].err)
+                            }
                             _ => self.env.get(&id).map_or(0.0, |a| a.err),
                         };
                         SigSummary {
@@ -382,6 +413,14 @@ impl<'a> Lowerer<'a> {
             );
             let (lo, hi) = self.bounds(id);
             let v = self.clamp(raw, lo, hi, &mut body)?;
+            // Input bits beyond a range bound off the grid clamp to the bound's grid point
+            // inside, where the reference clamps to the bound itself: that gap is the input's
+            // error.
+            if let Some((l, h)) = self.prog.sig(id).range {
+                let below = if q.ty.min() < lo { q.value(lo) - l } else { 0.0 };
+                let above = if q.ty.max() > hi { h - q.value(hi) } else { 0.0 };
+                self.vals[v.0].err = below.max(above).max(0.0);
+            }
             self.vals[v.0].name = Some(self.prog.sig(id).name.clone());
             self.inputs.insert(id, v);
         }
@@ -395,6 +434,7 @@ impl<'a> Lowerer<'a> {
             body,
             env: self.env,
             locals: self.locals,
+            inputs: self.inputs,
             seen: self.seen,
             received: self.received,
             mults: self.mults,
@@ -433,6 +473,10 @@ impl<'a> Lowerer<'a> {
         out: &mut Vec<LStmt>,
     ) -> ValId {
         debug_assert!(lo <= hi && ty.holds(lo, hi), "{op:?} {ty} [{lo}, {hi}]");
+        debug_assert!(
+            !matches!(op, Op::Shl(_, k) | Op::Shr(_, k) if k >= ty.bits),
+            "{op:?}: a shift as wide as its {ty} operand"
+        );
         let id = ValId(self.vals.len());
         self.vals.push(Val {
             op,
@@ -527,7 +571,8 @@ impl<'a> Lowerer<'a> {
         self.push(Op::Cast(v), ty, x.frac, x.lo, x.hi, x.err, out)
     }
 
-    /// `v · 2^k` exactly, by a left shift.
+    /// `v · 2^k` exactly, by a left shift. A constant is shifted at compile time, so no shift
+    /// ever reaches its operand's width (a zero can take any binary point).
     fn shl(&mut self, v: ValId, k: u32, span: Span, out: &mut Vec<LStmt>) -> Result<ValId> {
         if k == 0 {
             return Ok(v);
@@ -540,40 +585,55 @@ impl<'a> Lowerer<'a> {
         };
         let lo = shl_exact(x.lo, k as i32).ok_or_else(too_wide)?;
         let hi = shl_exact(x.hi, k as i32).ok_or_else(too_wide)?;
+        let frac = x.frac + k as i32;
+        if lo == hi {
+            let ty = self.working(lo, lo, span)?;
+            return Ok(self.push(Op::Const(lo), ty, frac, lo, lo, x.err, out));
+        }
         let ty = self.working(lo.min(x.lo), hi.max(x.hi), span)?;
         let c = self.cast(v, ty, out);
-        Ok(self.push(Op::Shl(c, k), ty, x.frac + k as i32, lo, hi, x.err, out))
+        Ok(self.push(Op::Shl(c, k), ty, frac, lo, hi, x.err, out))
     }
 
-    /// Drops `n` fraction bits with the program's rounding.
+    /// Drops `n` fraction bits with the program's rounding. Where the result can take only
+    /// one value it is a constant, and a shift is never as wide as its operand: `floor` of a
+    /// value in `[-2^(w-1), 2^(w-1))` shifted by `n ≥ w - 1` is its sign, `x >> (w - 1)`.
     fn round(&mut self, v: ValId, n: u32, span: Span, out: &mut Vec<LStmt>) -> Result<ValId> {
         if n == 0 {
             return Ok(v);
         }
-        let mut x = self.v(v).clone();
-        let mut src = v;
+        let x = self.v(v).clone();
+        let (lo, hi) = self.rounded(x.lo, x.hi, n);
+        let frac = x.frac - n as i32;
         let lsb_src = pow2(-x.frac);
+        // The most one rounding adds: floor drops up to 2^n - 1 source LSBs, nearest half of 2^n.
         let added = match self.prog.rounding {
             Rounding::Floor => (pow2(n as i32) - 1.0) * lsb_src,
-            Rounding::Nearest => {
-                let h = 1i128 << (n - 1);
-                let ty = self.working(x.lo + h, x.hi + h, span)?;
-                let c = self.cast(src, ty, out);
-                let hv = self.push(Op::Const(h), ty, x.frac, h, h, 0.0, out);
-                src = self.push(Op::Add(c, hv), ty, x.frac, x.lo + h, x.hi + h, x.err, out);
-                x = self.v(src).clone();
-                pow2(n as i32 - 1) * lsb_src
-            }
+            Rounding::Nearest => pow2(n as i32 - 1) * lsb_src,
         };
-        Ok(self.push(
-            Op::Shr(src, n),
-            x.ty,
-            x.frac - n as i32,
-            x.lo >> n,
-            x.hi >> n,
-            x.err + added,
-            out,
-        ))
+        if lo == hi {
+            let err = if x.lo == x.hi {
+                // A constant rounded at compile time: its exact rounding error.
+                (x.lo as f64 * lsb_src - lo as f64 * pow2(-frac)).abs()
+            } else {
+                added
+            };
+            let ty = self.working(lo, lo, span)?;
+            return Ok(self.push(Op::Const(lo), ty, frac, lo, lo, x.err + err, out));
+        }
+        let mut src = v;
+        let mut x = x;
+        if self.prog.rounding == Rounding::Nearest {
+            let h = 1i128 << (n - 1);
+            // The type holds the operand as well as the sum.
+            let ty = self.working(x.lo, x.hi + h, span)?;
+            let c = self.cast(src, ty, out);
+            let hv = self.push(Op::Const(h), ty, x.frac, h, h, 0.0, out);
+            src = self.push(Op::Add(c, hv), ty, x.frac, x.lo + h, x.hi + h, x.err, out);
+            x = self.v(src).clone();
+        }
+        let k = n.min(x.ty.bits - 1);
+        Ok(self.push(Op::Shr(src, k), x.ty, frac, lo, hi, x.err + added, out))
     }
 
     /// `v` re-expressed with `frac` fraction bits.
@@ -669,6 +729,8 @@ impl<'a> Lowerer<'a> {
                             )
                             .help("widen the pinned word or use fewer fraction bits"));
                         }
+                        // The pin names the binding's type too.
+                        v = self.cast(v, p.ty, out);
                     } else if let Some(lsb) = sig.lsb {
                         let f = (-lsb.log2()).ceil() as i32;
                         if f < x.frac {
@@ -801,7 +863,9 @@ impl<'a> Lowerer<'a> {
             Expr::Neg(a) => {
                 let a = self.expr(a, ctx, out)?;
                 let x = self.v(a).clone();
-                let ty = self.working(-x.hi, -x.lo, Span::call_site())?;
+                // The type holds the operand as well as the result: [0, 2^31] negates into
+                // i32, but is cast there first.
+                let ty = self.working(x.lo.min(-x.hi), x.hi.max(-x.lo), Span::call_site())?;
                 let c = self.cast(a, ty, out);
                 Ok(self.push(Op::Neg(c), ty, x.frac, -x.hi, -x.lo, x.err, out))
             }
@@ -869,13 +933,20 @@ impl<'a> Lowerer<'a> {
             0.0 => 0,
             m => self.prog.word as i32 - 1 - (m.log2().floor() as i32 + 1).max(0),
         };
-        // Prefer a binary point at which the constant is exact, up to 16 bits finer than ctx.
+        // Prefer a binary point at which the constant is exact, up to 16 bits finer than ctx;
+        // but never so fine that the raw value needs more than 62 bits (a large constant next
+        // to a finely resolved value: `align` then drops bits of the sum, not the constant).
+        let cap = match c.abs() {
+            0.0 => i32::MAX,
+            m => 61 - m.log2().floor() as i32,
+        };
         let frac = (ctx..=ctx + 16)
             .find(|&f| {
                 let r = (c * pow2(f)).round();
                 r * pow2(-f) == c
             })
-            .unwrap_or(ctx);
+            .unwrap_or(ctx)
+            .min(cap);
         let raw = (c * pow2(frac)).round() as i128;
         let ty = self.working(raw, raw, span)?;
         let err = (c - raw as f64 * pow2(-frac)).abs();
@@ -959,8 +1030,34 @@ impl<'a> Lowerer<'a> {
         op: Bin,
         out: &mut Vec<LStmt>,
     ) -> Result<ValId> {
+        if let (Bin::Min | Bin::Max, Some((x, c))) = (op, const_side(a, b)) {
+            return self.min_max_const(x, c, ctx, op, out);
+        }
         let (a, b) = self.pair(a, b, ctx, out)?;
         self.binary_vals(a, b, op, out)
+    }
+
+    /// `min(x, c)` / `max(x, c)` for a constant `c`: just `x` where `c` lies beyond `x`'s
+    /// proved interval on the side that makes the operation a no-op (exact, and it keeps a
+    /// huge bound such as `min(x, 1e14)` from costing `x` its fraction bits); else the
+    /// constant on `x`'s grid, as for any operand pair.
+    fn min_max_const(
+        &mut self,
+        x: &Expr,
+        c: (f64, Span),
+        ctx: i32,
+        op: Bin,
+        out: &mut Vec<LStmt>,
+    ) -> Result<ValId> {
+        let v = self.expr(x, ctx, out)?;
+        let xv = self.v(v).clone();
+        let (fl, ce) = floor_ceil_scaled(c.0, xv.frac);
+        // min(x, c) = x when c ≥ max x, i.e. ⌊c·2^f⌋ ≥ hi; max(x, c) = x when ⌈c·2^f⌉ ≤ lo.
+        if matches!(op, Bin::Min) && fl >= xv.hi || matches!(op, Bin::Max) && ce <= xv.lo {
+            return Ok(v);
+        }
+        let k = self.constant(c.0, xv.frac, c.1, out)?;
+        self.binary_vals(v, k, op, out)
     }
 
     /// `a ± b` about to be rounded to `frac` bits: rounds the finer operand first where that
@@ -1037,26 +1134,22 @@ impl<'a> Lowerer<'a> {
         span: Span,
         out: &mut Vec<LStmt>,
     ) -> Result<ValId> {
-        // If the exact product would exceed 64 bits, drop fraction bits from x first (with
-        // the program's rounding; the error is counted) until it fits.
-        let mut x = x;
-        loop {
-            let xv = self.v(x).clone();
-            let xm = xv.lo.abs().max(xv.hi.abs()).max(1);
-            let (m, _) = quantise(c, &xv);
-            let need = 128 - (xm * m.abs().max(1)).leading_zeros() + 2;
-            if need <= 64 || xm == 1 {
-                break;
-            }
-            x = self.round(x, need - 64, span, out)?;
-        }
+        // If the exact product would exceed 64 bits, drop the fewest fraction bits of x that
+        // make it fit (with the program's rounding; the error is counted).
+        let n = self.factor_rounding(x, c, span)?;
+        let x = self.round(x, n, span, out)?;
         let xv = self.v(x).clone();
         let mx = xv.lo.abs().max(xv.hi.abs()) as f64 * pow2(-xv.frac);
-        let (m, k) = quantise(c, &xv);
+        let (m, k) = if c == 0.0 || mx == 0.0 {
+            (0, 0)
+        } else {
+            quantise(c, xv.frac, mx).ok_or_else(|| too_wide_product(c, span))?
+        };
         let q = m as f64 * pow2(-k);
         let err = (q.abs() * xv.err) + (mx + xv.err) * (q - c).abs();
         let frac = xv.frac + k;
         if m == 0 {
+            // c = 0, or x is identically 0: the product is exactly 0.
             return Ok(self.push(
                 Op::Const(0),
                 IntTy::signed(self.target.min_work_bits()),
@@ -1179,21 +1272,185 @@ impl<'a> Lowerer<'a> {
         Ok(self.push_fit(Op::Cast(r), ty, frac, plo, phi, err, out))
     }
 
+    /// How many fraction bits `x` must drop before `x · c` fits 64-bit arithmetic, with `c`
+    /// quantised by [`quantise`] (error ≤ ½ LSB of the rounded `x`): the fewest, so that the
+    /// product keeps every bit of precision the words allow. A factor whose product with `x`
+    /// lies below half an LSB of `x` would quantise to 0, and is refused; so is one whose
+    /// product leaves the f64 range.
+    fn factor_rounding(&self, x: ValId, c: f64, span: Span) -> Result<u32> {
+        let xv = self.v(x);
+        let xm = xv.lo.abs().max(xv.hi.abs());
+        if c == 0.0 || xm == 0 {
+            return Ok(0);
+        }
+        let mx = xm as f64 * pow2(-xv.frac);
+        if !(c.abs() * mx).is_finite() {
+            return Err(Diag::new(
+                span,
+                format!(
+                    "the product with {} overflows: its magnitude exceeds the f64 range \
+                     (±1.8e308), so neither the reference nor the fixed-point code can hold it",
+                    crate::report::g(c)
+                ),
+            )
+            .label("overflows")
+            .help("change units so that the constants and ranges are closer to 1"));
+        }
+        if c.abs() * mx <= pow2(-xv.frac - 1) {
+            return Err(Diag::new(
+                span,
+                format!(
+                    "the factor {} vanishes in this product: |{} · x| ≤ {:.3e} is below half the \
+                     resolution of the other factor (LSB {:.3e}), so the product would be 0",
+                    crate::report::g(c),
+                    crate::report::g(c),
+                    c.abs() * mx,
+                    pow2(-xv.frac)
+                ),
+            )
+            .label("quantises to 0")
+            .help(
+                "remove the term if it is negligible; otherwise give the other factor a finer \
+                 format (`#[lsb(..)]` or `#[q(..)]` on a `let` or its declaration), or change \
+                 units so that the constant is larger",
+            ));
+        }
+        let bits = 128 - xm.leading_zeros();
+        for n in 0..bits {
+            let (lo, hi) = self.rounded(xv.lo, xv.hi, n);
+            let xm = lo.abs().max(hi.abs()).max(1);
+            let mx = xm as f64 * pow2(n as i32 - xv.frac);
+            if let Some((m, _)) = quantise(c, xv.frac - n as i32, mx) {
+                if 128 - (xm * m.abs()).leading_zeros() + 2 <= 64 {
+                    return Ok(n);
+                }
+            }
+        }
+        Err(too_wide_product(c, span))
+    }
+
+    /// The raw interval of `[lo, hi]` after dropping `n` fraction bits with the program's
+    /// rounding (what [`Self::round`] computes).
+    fn rounded(&self, lo: i128, hi: i128, n: u32) -> (i128, i128) {
+        let n = n.min(127);
+        match self.prog.rounding {
+            Rounding::Floor => (lo >> n, hi >> n),
+            Rounding::Nearest if n == 0 => (lo, hi),
+            Rounding::Nearest => {
+                let h = 1i128 << (n - 1);
+                ((lo + h) >> n, (hi + h) >> n)
+            }
+        }
+    }
+
+    /// A condition. A comparison's `err` is its *band*: the fixed-point decision equals the
+    /// real-arithmetic one whenever the real operands differ by more than the band (the sum of
+    /// the operands' error bounds; 0 for exact operands, such as inputs compared with
+    /// constants).
     fn cond(&mut self, c: &Cond, out: &mut Vec<LStmt>) -> Result<ValId> {
         let (op, err) = match c {
+            Cond::Cmp(op, Expr::Const { value: x, .. }, Expr::Const { value: y, .. }) => {
+                return self.decided(op.eval(x, y), out);
+            }
+            Cond::Cmp(op, x, Expr::Const { value, .. }) => {
+                return self.threshold(*op, x, *value, out);
+            }
+            Cond::Cmp(op, Expr::Const { value, .. }, x) => {
+                return self.threshold(op.mirror(), x, *value, out);
+            }
             Cond::Cmp(op, a, b) => {
                 let (a, b) = self.pair(a, b, 0, out)?;
                 let (a, b, _, _) = self.align(a, b, Bin::Hull, Span::call_site(), out)?;
-                (Op::Cmp(*op, a, b), 0.0)
+                let band = self.v(a).err + self.v(b).err;
+                (Op::Cmp(*op, a, b), band)
             }
             Cond::And(a, b) => (Op::And(self.cond(a, out)?, self.cond(b, out)?), 0.0),
             Cond::Or(a, b) => (Op::Or(self.cond(a, out)?, self.cond(b, out)?), 0.0),
             Cond::Not(a) => (Op::Not(self.cond(a, out)?), 0.0),
         };
+        Ok(self.boolean(op, err, out))
+    }
+
+    fn boolean(&mut self, op: Op, err: f64, out: &mut Vec<LStmt>) -> ValId {
         let id = self.push(op, IntTy::signed(8), 0, 0, 1, err, out);
         self.vals[id.0].boolean = true;
-        Ok(id)
+        id
     }
+
+    /// `x OP c` for a constant `c`, decided exactly on every raw value of `x`: `c` becomes the
+    /// integer threshold `t` on `x`'s grid that gives the same answer (`x ≥ c ⟺ raw ≥ ⌈c·2^f⌉`,
+    /// `x > c ⟺ raw > ⌊c·2^f⌋`, likewise `<` with the ceiling and `≤` with the floor; `x == c`
+    /// for a `c` off the grid is never true), clamped to just outside `x`'s interval. The
+    /// comparison's band is `x`'s own error bound.
+    fn threshold(&mut self, op: CmpOp, x: &Expr, c: f64, out: &mut Vec<LStmt>) -> Result<ValId> {
+        let v = self.expr(x, 0, out)?;
+        let xv = self.v(v).clone();
+        let (fl, ce) = floor_ceil_scaled(c, xv.frac);
+        let t = match op {
+            CmpOp::Ge | CmpOp::Lt => ce,
+            CmpOp::Gt | CmpOp::Le => fl,
+            CmpOp::Eq | CmpOp::Ne if fl == ce => fl,
+            // Off the grid: `==` never holds, `!=` always does; any raw outside x's interval
+            // says so.
+            CmpOp::Eq | CmpOp::Ne => xv.hi + 1,
+        };
+        let t = t.clamp(xv.lo - 1, xv.hi + 1);
+        let ty = self.working(xv.lo.min(t), xv.hi.max(t), Span::call_site())?;
+        let a = self.cast(v, ty, out);
+        let k = self.push(Op::Const(t), ty, xv.frac, t, t, 0.0, out);
+        Ok(self.boolean(Op::Cmp(op, a, k), xv.err, out))
+    }
+
+    /// A comparison of two constants, decided at compile time on their exact values (as the
+    /// reference decides it): `0 < 1` or `1 < 0`.
+    fn decided(&mut self, truth: bool, out: &mut Vec<LStmt>) -> Result<ValId> {
+        let ty = IntTy::signed(self.target.min_work_bits());
+        let zero = self.push(Op::Const(0), ty, 0, 0, 0, 0.0, out);
+        let one = self.push(Op::Const(1), ty, 0, 1, 1, 0.0, out);
+        let (a, b) = if truth { (zero, one) } else { (one, zero) };
+        Ok(self.boolean(Op::Cmp(CmpOp::Lt, a, b), 0.0, out))
+    }
+}
+
+/// The non-constant operand and the constant (value, site) of a pair with exactly one
+/// constant.
+fn const_side<'e>(a: &'e Expr, b: &'e Expr) -> Option<(&'e Expr, (f64, Span))> {
+    match (a, b) {
+        (Expr::Const { .. }, Expr::Const { .. }) => None,
+        (Expr::Const { value, span, .. }, x) | (x, Expr::Const { value, span, .. }) => {
+            Some((x, (*value, *span)))
+        }
+        _ => None,
+    }
+}
+
+/// `(⌊c·2^f⌋, ⌈c·2^f⌉)`, exact for every finite `c` (from its binary mantissa and exponent),
+/// saturated to ±2^100 (far beyond any 64-bit raw value, which is all a threshold is compared
+/// with).
+fn floor_ceil_scaled(c: f64, f: i32) -> (i128, i128) {
+    const CAP: i128 = 1 << 100;
+    if c == 0.0 {
+        return (0, 0);
+    }
+    // c = m · 2^e with m a 53-bit integer.
+    let bits = c.to_bits();
+    let exp = ((bits >> 52) & 0x7ff) as i32;
+    let frac_bits = (bits & ((1u64 << 52) - 1)) as i128;
+    let (m, e) = if exp == 0 {
+        (frac_bits, -1074)
+    } else {
+        (frac_bits | (1 << 52), exp - 1075)
+    };
+    let m = if c < 0.0 { -m } else { m };
+    let s = e + f;
+    if s >= 0 {
+        let v = if s >= 47 { m.signum() * CAP } else { m << s };
+        return (v, v);
+    }
+    let r = (-s).min(127) as u32;
+    let fl = m >> r;
+    let exact = r < 127 && (fl << r) == m;
+    (fl, if exact { fl } else { fl + 1 })
 }
 
 /// `v · 2^k` if it fits comfortably in an `i128` (the analysis only needs up to 2^66).
@@ -1205,31 +1462,43 @@ fn shl_exact(v: i128, k: i32) -> Option<i128> {
     (r.unsigned_abs() < 1u128 << 100).then_some(r)
 }
 
-/// Quantises a constant factor `c` for a product with `x` as `m·2^-k` (`m` odd or zero), fine
-/// enough that |c − m·2^-k|·max|x| ≤ ½ LSB of x, with the fewest significant bits.
-fn quantise(c: f64, x: &Val) -> (i128, i32) {
-    if c == 0.0 {
-        return (0, 0);
-    }
-    let mx = x.lo.abs().max(x.hi.abs()) as f64 * pow2(-x.frac);
-    let tol = pow2(-x.frac - 1);
-    let (mut m, mut k) = (0i128, 0i32);
-    for kk in -64..=120 {
-        let mm = (c * pow2(kk)).round();
+/// Quantises a non-zero constant factor `c` for a product with a value of `frac` fraction bits
+/// and magnitude up to `mx` as `m·2^-k` (`m` odd), fine enough that
+/// |c − m·2^-k|·mx ≤ ½ LSB of that value, with the fewest significant bits; `None` if that
+/// needs `|m| ≥ 2^62`.
+fn quantise(c: f64, frac: i32, mx: f64) -> Option<(i128, i32)> {
+    let tol = pow2(-frac - 1);
+    // c·2^-e ∈ [1, 2); from k = -e - 1 on, m = round(c·2^k) is at least 1.
+    let e = c.abs().log2().floor() as i32;
+    for kk in (-e - 1)..(-e + 62) {
+        // c·2^kk in two steps, so that neither factor over- or underflows.
+        let mm = (c * pow2(kk / 2) * pow2(kk - kk / 2)).round();
         if mm.abs() >= pow2(62) {
-            break;
+            return None;
         }
-        m = mm as i128;
-        k = kk;
-        if (c - mm * pow2(-kk)).abs() * mx <= tol {
-            break;
+        let (mut m, mut k) = (mm as i128, kk);
+        if (c - mm * pow2(-kk / 2) * pow2(-(kk - kk / 2))).abs() * mx <= tol {
+            while m != 0 && m % 2 == 0 {
+                m /= 2;
+                k -= 1;
+            }
+            return Some((m, k));
         }
     }
-    while m != 0 && m % 2 == 0 {
-        m /= 2;
-        k -= 1;
-    }
-    (m, k)
+    None
+}
+
+/// The error for a constant factor whose product cannot be held in 64-bit arithmetic.
+fn too_wide_product(c: f64, span: Span) -> Diag {
+    Diag::new(
+        span,
+        format!(
+            "the product with {} cannot be computed in 64-bit arithmetic at the precision qloop \
+             guarantees (the constant quantised within half an LSB of the other factor)",
+            crate::report::g(c)
+        ),
+    )
+    .help("narrow the other factor's range, or change units so that the constant is closer to 1")
 }
 
 /// Binary operation kinds for range computation.

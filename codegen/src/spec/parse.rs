@@ -280,11 +280,13 @@ pub fn doc_lines(attrs: &[Attribute]) -> Vec<String> {
 
 /// Parses a spec from tokens (the macro's input, or a file lexed by [`parse_str`]).
 pub fn parse_tokens(tokens: TokenStream) -> Result<SpecAst> {
+    super::scan::nesting(&tokens)?;
     syn::parse2(tokens).map_err(Diag::from)
 }
 
 /// Lexes and parses a `.qloop` file's text. Spans then carry line/column within `src`.
 pub fn parse_str(src: &str) -> Result<SpecAst> {
+    super::scan::brackets(src)?;
     let tokens: TokenStream = src.parse().map_err(|e: proc_macro2::LexError| {
         Diag::new(e.span(), format!("cannot lex the spec: {e}"))
             .help("a spec uses Rust tokens: check for unbalanced brackets or unterminated strings")
