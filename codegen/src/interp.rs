@@ -8,7 +8,7 @@
 //! The real interpreter is the f64 reference: same body, real arithmetic, exact constants,
 //! inputs clamped and states saturated to their declared (unquantised) ranges.
 
-use crate::ir::{Cond, Expr, Program, SigKind, Stmt};
+use crate::ir::{comparisons_in, Cond, Expr, Program, SigKind, Stmt};
 use crate::lower::lir::{LStmt, Op, ValId};
 use crate::lower::Plan;
 
@@ -23,18 +23,11 @@ pub struct RangeViolation {
     pub range: (i128, i128),
 }
 
-/// Result of one fixed-point step.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct FixedStep {
-    /// Raw value of every signal slot after the step (states and outputs meaningful).
-    pub vars: Vec<i128>,
-    /// Outcomes of comparisons, in execution order.
-    pub decisions: Vec<bool>,
-}
-
 /// Runs one step of the plan. `vars` holds raw input bits and raw state values, indexed by
-/// signal id; it is updated in place (states and outputs).
-pub fn step_fixed(plan: &Plan, vars: &mut [i128]) -> Result<Vec<bool>, RangeViolation> {
+/// signal id; it is updated in place (states and outputs). Returns the comparisons it made,
+/// in execution order, as (the comparison's index in the reference's evaluation order,
+/// outcome); see [`agree`].
+pub fn step_fixed(plan: &Plan, vars: &mut [i128]) -> Result<Vec<(usize, bool)>, RangeViolation> {
     let mut m = Machine {
         plan,
         vals: vec![0; plan.vals.len()],
@@ -64,10 +57,17 @@ pub fn step_fixed_trace(
         .collect())
 }
 
+/// Whether the fixed step's decisions ([`step_fixed`]) equal the reference's ([`step_real`]):
+/// every comparison the fixed step made, the reference made with the same outcome.
+/// Comparisons whose value nothing uses are not in the plan, and do not count.
+pub fn agree(fixed: &[(usize, bool)], real: &[(usize, bool)]) -> bool {
+    fixed.iter().all(|f| real.contains(f))
+}
+
 struct Machine<'a> {
     plan: &'a Plan,
     vals: Vec<i128>,
-    decisions: Vec<bool>,
+    decisions: Vec<(usize, bool)>,
 }
 
 impl Machine<'_> {
@@ -148,7 +148,8 @@ impl Machine<'_> {
             }
             Op::Cmp(op, a, b) => {
                 let r = op.eval(g(*a), g(*b));
-                self.decisions.push(r);
+                let k = self.plan.val(id).decision.unwrap_or(usize::MAX);
+                self.decisions.push((k, r));
                 i128::from(r)
             }
             Op::And(a, b) => i128::from(g(*a) != 0 && g(*b) != 0),
@@ -159,8 +160,9 @@ impl Machine<'_> {
 }
 
 /// Runs one real-valued step of the program. `vars` holds input and state values by signal
-/// id and is updated in place. Returns the comparison outcomes in execution order.
-pub fn step_real(prog: &Program, vars: &mut [f64]) -> Vec<bool> {
+/// id and is updated in place. Returns the comparisons it made, in execution order, as (the
+/// comparison's static number, [`crate::ir::comparisons_in`], outcome).
+pub fn step_real(prog: &Program, vars: &mut [f64]) -> Vec<(usize, bool)> {
     for (i, s) in prog.signals.iter().enumerate() {
         if s.kind == SigKind::Input {
             if let Some((lo, hi)) = s.range {
@@ -168,12 +170,19 @@ pub fn step_real(prog: &Program, vars: &mut [f64]) -> Vec<bool> {
             }
         }
     }
-    let mut decisions = Vec::new();
-    run_block(prog, &prog.body, vars, &mut decisions);
-    decisions
+    let mut d = Decisions::default();
+    run_block(prog, &prog.body, vars, &mut d);
+    d.taken
 }
 
-fn run_block(prog: &Program, stmts: &[Stmt], vars: &mut [f64], d: &mut Vec<bool>) {
+/// The decisions of a real step, numbered statically.
+#[derive(Default)]
+struct Decisions {
+    next: usize,
+    taken: Vec<(usize, bool)>,
+}
+
+fn run_block(prog: &Program, stmts: &[Stmt], vars: &mut [f64], d: &mut Decisions) {
     for s in stmts {
         match s {
             Stmt::Assign { target, value, .. } => {
@@ -188,8 +197,10 @@ fn run_block(prog: &Program, stmts: &[Stmt], vars: &mut [f64], d: &mut Vec<bool>
             }
             Stmt::If { cond, then, els } => {
                 if eval_cond(cond, vars, d) {
-                    run_block(prog, then, vars, d)
+                    run_block(prog, then, vars, d);
+                    d.next += comparisons_in(els);
                 } else {
+                    d.next += comparisons_in(then);
                     run_block(prog, els, vars, d)
                 }
             }
@@ -197,7 +208,7 @@ fn run_block(prog: &Program, stmts: &[Stmt], vars: &mut [f64], d: &mut Vec<bool>
     }
 }
 
-fn eval(e: &Expr, vars: &[f64], d: &mut Vec<bool>) -> f64 {
+fn eval(e: &Expr, vars: &[f64], d: &mut Decisions) -> f64 {
     match e {
         Expr::Const { value, .. } => *value,
         Expr::Var(id, _) => vars[id.0],
@@ -220,12 +231,14 @@ fn eval(e: &Expr, vars: &[f64], d: &mut Vec<bool>) -> f64 {
     }
 }
 
-fn eval_cond(c: &Cond, vars: &[f64], d: &mut Vec<bool>) -> bool {
+fn eval_cond(c: &Cond, vars: &[f64], d: &mut Decisions) -> bool {
     match c {
         Cond::Cmp(op, a, b) => {
+            let k = d.next;
+            d.next += 1;
             let (x, y) = (eval(a, vars, d), eval(b, vars, d));
             let r = op.eval(x, y);
-            d.push(r);
+            d.taken.push((k, r));
             r
         }
         Cond::And(a, b) => {

@@ -173,6 +173,51 @@ pub enum Expr {
     Select(Box<Cond>, Box<Expr>, Box<Expr>),
 }
 
+/// Comparisons are numbered statically, in pre-order over the body: statements in order; an
+/// `if`'s condition, then its branch, then its `else`; a comparison before its operands; a
+/// value `if`'s condition, then its arms. The lowering numbers the plan's comparisons this way
+/// ([`crate::lower::lir::Val::decision`]) and the interpreters report decisions by these
+/// numbers, skipping those of a branch not taken, so that decisions can be matched across
+/// models.
+pub fn comparisons_in(stmts: &[Stmt]) -> usize {
+    stmts
+        .iter()
+        .map(|s| match s {
+            Stmt::Assign { value, .. } => value.comparisons(),
+            Stmt::If { cond, then, els } => {
+                cond.comparisons() + comparisons_in(then) + comparisons_in(els)
+            }
+        })
+        .sum()
+}
+
+impl Expr {
+    /// How many comparisons the expression holds (see [`comparisons_in`]).
+    pub fn comparisons(&self) -> usize {
+        match self {
+            Expr::Const { .. } | Expr::Var(..) => 0,
+            Expr::Neg(a) => a.comparisons(),
+            Expr::Add(a, b)
+            | Expr::Sub(a, b)
+            | Expr::Mul(a, b, _)
+            | Expr::Min(a, b)
+            | Expr::Max(a, b) => a.comparisons() + b.comparisons(),
+            Expr::Select(c, a, b) => c.comparisons() + a.comparisons() + b.comparisons(),
+        }
+    }
+}
+
+impl Cond {
+    /// How many comparisons the condition holds (see [`comparisons_in`]).
+    pub fn comparisons(&self) -> usize {
+        match self {
+            Cond::Cmp(_, a, b) => 1 + a.comparisons() + b.comparisons(),
+            Cond::And(a, b) | Cond::Or(a, b) => a.comparisons() + b.comparisons(),
+            Cond::Not(a) => a.comparisons(),
+        }
+    }
+}
+
 /// Comparison operator.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum CmpOp {

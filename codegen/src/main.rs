@@ -63,9 +63,14 @@ enum Cmd {
         /// Also write the report as JSON to this file.
         #[arg(long)]
         json: Option<PathBuf>,
-        /// Per-solver, per-obligation timeout in seconds.
+        /// Time limit for the whole proof, in seconds (default: none). At the limit, running
+        /// solvers are stopped and queries not yet started are not run: their obligations are
+        /// unknown.
+        #[arg(long)]
+        timeout: Option<u64>,
+        /// Time limit per solver per query, in seconds.
         #[arg(long, default_value_t = 60)]
-        timeout: u64,
+        query_timeout: u64,
         /// Solver processes at once (default: the number of cores).
         #[arg(long)]
         jobs: Option<usize>,
@@ -272,6 +277,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
             spec,
             json,
             timeout,
+            query_timeout,
             jobs,
             solvers,
             cache,
@@ -284,7 +290,9 @@ fn run(cli: Cli) -> Result<(), Fail> {
             if let Some(dir) = &smt_dir {
                 write_smt(&plan, dir)?;
             }
-            let cfg = solver_config(solvers, timeout, jobs, cache, no_cache)?;
+            let mut cfg = solver_config(solvers, query_timeout, jobs, cache, no_cache)?;
+            let start = std::time::Instant::now();
+            cfg.deadline = timeout.map(|t| start + std::time::Duration::from_secs(t));
             let report = run_prove(&plan, &cfg, only.as_deref());
             print!("{}", report.table(&plan));
             if let Some(j) = json {
@@ -656,9 +664,20 @@ fn run_prove(
         )
         .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
+    // Without a terminal (CI logs), a plain line every 10 s instead of the bar.
+    let quiet = bar.is_hidden();
+    let start = std::time::Instant::now();
+    let mut last = start;
     let report = qloop::prove::prove_filtered(plan, cfg, only, &mut |done, total| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
+        if quiet && (last.elapsed().as_secs() >= 10 || done == total) {
+            last = std::time::Instant::now();
+            eprintln!(
+                "qloop prove: {done}/{total} solver runs done, {:.0} s",
+                start.elapsed().as_secs_f64()
+            );
+        }
     });
     bar.finish_and_clear();
     report

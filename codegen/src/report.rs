@@ -6,6 +6,7 @@ use crate::ir::SigKind;
 use crate::lower::lir::{LStmt, Op};
 use crate::lower::target::{MulKind, Target};
 use crate::lower::Plan;
+use std::cmp::Ordering;
 use std::fmt::Write;
 
 /// Counts of emitted operations in `step` (both branches of every `if`).
@@ -143,6 +144,7 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
         };
         let _ = writeln!(o, "  x * {what} = x * {}·2^{}: {how}", m.m, -m.k);
     }
+    o.push_str(&comparisons(plan));
     let c = op_counts(plan);
     let _ = writeln!(o);
     let _ = writeln!(o, "Working widths of step's values: {}", width_census(plan));
@@ -157,6 +159,36 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
 assuming both take the same branches."
     );
     o
+}
+
+/// The comparisons of `step`, each with its band: the fixed-point decision equals real
+/// arithmetic's whenever the real operands differ by more than the band ("exact": always).
+fn comparisons(plan: &Plan) -> String {
+    let rows: Vec<String> = plan
+        .vals
+        .iter()
+        .filter_map(|v| match v.op {
+            Op::Cmp(op, ..) => Some(format!(
+                "  line {:<4} {:<2}  {}",
+                v.line,
+                op.symbol(),
+                if v.err == 0.0 {
+                    "exact".to_string()
+                } else {
+                    format!("band {}", bound(v.err))
+                }
+            )),
+            _ => None,
+        })
+        .collect();
+    if rows.is_empty() {
+        return String::new();
+    }
+    format!(
+        "\nComparisons (a decision can differ from real arithmetic only where the operands are \
+         within the band):\n{}\n",
+        rows.join("\n")
+    )
 }
 
 /// How many values of each integer width `step` computes, e.g. `i32 ×14, i64 ×3`.
@@ -287,15 +319,56 @@ pub fn table(head: &[String], rows: &[Vec<String>]) -> String {
 /// printed digit outward where that was not already so.
 fn directed(v: f64, up: bool, fmt: impl Fn(f64) -> String, unit: impl Fn(f64) -> f64) -> String {
     let mut s = fmt(v);
-    for _ in 0..4 {
-        let p: f64 = s.parse().unwrap_or(v);
-        if (up && p >= v) || (!up && p <= v) || !v.is_finite() {
+    if !v.is_finite() {
+        return s;
+    }
+    for _ in 0..8 {
+        let outward = match decimal_cmp(&s, v) {
+            Some(o) => o == Ordering::Equal || (o == Ordering::Greater) == up,
+            None => false,
+        };
+        if outward {
             return s;
         }
+        let p: f64 = s.parse().unwrap_or(v);
         let u = unit(p);
         s = fmt(if up { p + u } else { p - u });
     }
     s
+}
+
+/// Compares the decimal `s` (as printed: `-1.563e-4`, `0.05`) with the exact value of `v`,
+/// exactly (a decimal and a binary fraction rarely coincide, and parsing `s` back to f64 would
+/// round it).
+fn decimal_cmp(s: &str, v: f64) -> Option<Ordering> {
+    use num_bigint::BigInt;
+    let (mant, exp) = match s.find(['e', 'E']) {
+        Some(i) => (&s[..i], s[i + 1..].parse::<i32>().ok()?),
+        None => (s, 0),
+    };
+    let neg = mant.starts_with('-');
+    let mant = mant.trim_start_matches(['-', '+']);
+    let (int, frac) = mant.split_once('.').unwrap_or((mant, ""));
+    let mut d: BigInt = format!("{int}{frac}").parse().ok()?;
+    if neg {
+        d = -d;
+    }
+    let k = exp - frac.len() as i32; // s = d · 10^k
+                                     // v = m · 2^e exactly.
+    let bits = v.to_bits();
+    let be = ((bits >> 52) & 0x7ff) as i32;
+    let mant_bits = (bits & ((1u64 << 52) - 1)) as i64;
+    let (m, e) = if be == 0 {
+        (mant_bits, -1074)
+    } else {
+        (mant_bits | (1 << 52), be - 1075)
+    };
+    let m = BigInt::from(if v < 0.0 { -m } else { m });
+    let pow = |b: u32, n: i32| BigInt::from(b).pow(n.max(0) as u32);
+    // d·10^k ? m·2^e  ⟺  d·10^k⁺·2^e⁻ ? m·2^e⁺·10^k⁻
+    let lhs = d * pow(10, k) * pow(2, -e);
+    let rhs = m * pow(2, e) * pow(10, -k);
+    Some(lhs.cmp(&rhs))
 }
 
 /// One unit of the last digit of `{:.Ne}` formatting at `v`'s magnitude.
@@ -344,5 +417,43 @@ pub fn g(v: f64) -> String {
         s.trim_end_matches('0').trim_end_matches('.').to_string()
     } else {
         format!("{v:.4e}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A printed bound is never below the bound, and a printed range never inside the range,
+    /// exactly (not only after parsing back to f64).
+    #[test]
+    fn printed_bounds_round_up_and_ranges_outward() {
+        // `{:.3e}` rounds to nearest: 1.56245e-4 printed as 1.562e-4, below the bound.
+        assert_eq!(format!("{:.3e}", 1.56245e-4), "1.562e-4");
+        assert_eq!(bound(1.56245e-4), "1.563e-4");
+        assert_eq!(bound(0.5), "5.000e-1");
+        assert_eq!(bound(0.0), "0.000e0");
+        // -1.178e-5 as an f64 is a little more than 1.178e-5 in magnitude: the decimal that
+        // parses back to the same f64 is below it.
+        assert_eq!(decimal_cmp("1.178e-5", 1.178e-5), Some(Ordering::Less));
+        assert_eq!(bound(1.178e-5), "1.179e-5");
+        // The f64 nearest 0.2083 is a little above it.
+        assert_eq!(g_down(0.2083), "0.2083");
+        assert_eq!(g_up(0.2083), "0.208301");
+        assert_eq!(range_text(0.050048828125, 5.0), "[0.050048, 5]");
+        for v in [
+            3.0503e-5,
+            1e-300,
+            123456.789,
+            7.0,
+            0.1,
+            2f64.powi(-40),
+            9.999e-1,
+        ] {
+            assert_ne!(decimal_cmp(&bound(v), v), Some(Ordering::Less), "{v}");
+            assert_ne!(decimal_cmp(&g_up(v), v), Some(Ordering::Less), "{v}");
+            assert_ne!(decimal_cmp(&g_down(v), v), Some(Ordering::Greater), "{v}");
+            assert_ne!(decimal_cmp(&g_up(-v), -v), Some(Ordering::Less), "{v}");
+        }
     }
 }

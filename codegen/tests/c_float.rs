@@ -937,7 +937,7 @@ fn float_step_of_every_construct_matches_the_real_interpreter() {
     assert_eq!(floats(&run(&exe, "I\n")), fmt_f32(&init), "init");
     let mut rng = Rng(0xFEA7);
     let (mut script, mut want) = (String::new(), Vec::new());
-    let mut paths = std::collections::BTreeMap::<Vec<bool>, usize>::new();
+    let mut paths = std::collections::BTreeMap::<Vec<(usize, bool)>, usize>::new();
     for _ in 0..2000 {
         let st = draw(&mut rng, prog, SigKind::State);
         let inp = draw(&mut rng, prog, SigKind::Input);

@@ -64,10 +64,22 @@ fn cases() -> Vec<(&'static str, String, String)> {
     let product = |k: usize| format!("y = {};", vec!["x"; k].join(" * "));
     vec![
         ("parentheses", parens(n), parens(n + 1)),
-        ("flat conjunction", conj((MAX_LENGTH - 8) / 3), conj(MAX_LENGTH / 3 + 1)),
-        ("flat product", product(MAX_LENGTH - 2), product(MAX_LENGTH + 1)),
+        (
+            "flat conjunction",
+            conj((MAX_LENGTH - 8) / 3),
+            conj(MAX_LENGTH / 3 + 1),
+        ),
+        (
+            "flat product",
+            product(MAX_LENGTH - 2),
+            product(MAX_LENGTH + 1),
+        ),
         ("unary minus", negs(n), negs(n + 1)),
-        ("clamp calls (the `-1.0` adds one)", clamps(n - 1), clamps(n)),
+        (
+            "clamp calls (the `-1.0` adds one)",
+            clamps(n - 1),
+            clamps(n),
+        ),
         ("-( pairs", neg_parens(n / 2), neg_parens(n / 2 + 1)),
         ("else if chain (its blocks add one)", ifs(n - 1), ifs(n)),
         ("flat sum", sum(MAX_LENGTH - 2), sum(MAX_LENGTH + 1)),
@@ -92,9 +104,17 @@ fn deepest_admitted_specs_compile_in_a_small_stack() {
 #[test]
 fn issue_12_stack_overflows_are_located_errors() {
     let cases = [
-        (spec(&format!("y = {}x{};", "(".repeat(4000), ")".repeat(4000))), 5, 78),
+        (
+            spec(&format!("y = {}x{};", "(".repeat(4000), ")".repeat(4000))),
+            5,
+            78,
+        ),
         (spec(&format!("y = {}x;", "-".repeat(10000))), 5, 78),
-        (spec(&format!("y = {};", vec!["x"; 10000].join(" + "))), 5, 1030),
+        (
+            spec(&format!("y = {};", vec!["x"; 10000].join(" + "))),
+            5,
+            1030,
+        ),
         (
             spec(&format!(
                 "{}y = x;{}",
@@ -105,7 +125,11 @@ fn issue_12_stack_overflows_are_located_errors() {
             0,
         ),
         (
-            spec(&format!("y = {}x{};", "clamp(".repeat(3000), ", -1.0, 1.0)".repeat(3000))),
+            spec(&format!(
+                "y = {}x{};",
+                "clamp(".repeat(3000),
+                ", -1.0, 1.0)".repeat(3000)
+            )),
             5,
             0,
         ),
@@ -117,11 +141,7 @@ fn issue_12_stack_overflows_are_located_errors() {
                 .map(|d| (d.message.clone(), d.line_col()))
         })
         .expect("refused");
-        assert!(
-            d.0.contains("nest") || d.0.contains("too long"),
-            "{}",
-            d.0
-        );
+        assert!(d.0.contains("nest") || d.0.contains("too long"), "{}", d.0);
         eprintln!("{} at {:?}", d.0, d.1);
         assert_eq!(d.1 .0, line, "{}", d.0);
         if col > 0 {
@@ -140,6 +160,10 @@ fn seed_specs_are_far_from_the_limits() {
         let src = std::fs::read_to_string(&p).expect("read");
         let (nest, len) = measure(&src.parse().expect("lexes")).expect("within the limits");
         eprintln!("{}: nesting {nest}, length {len}", p.display());
-        assert!(nest * 4 < MAX_NESTING && len * 4 < MAX_LENGTH, "{}: {nest}, {len}", p.display());
+        assert!(
+            nest * 4 < MAX_NESTING && len * 4 < MAX_LENGTH,
+            "{}: {nest}, {len}",
+            p.display()
+        );
     }
 }

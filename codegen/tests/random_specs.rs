@@ -147,7 +147,7 @@ proptest! {
             let fd = step_fixed(&plan, &mut fv)
                 .map_err(|v| TestCaseError::fail(format!("{v:?} in\n{}", sp.src)))?;
             let rd = step_real(&plan.prog, &mut rv);
-            if fd != rd {
+            if !qloop::interp::agree(&fd, &rd) {
                 continue; // different branch: the bound does not apply
             }
             for (i, s) in plan.prog.signals.iter().enumerate() {

@@ -1,5 +1,10 @@
 //! Helpers shared by the workspace integration tests.
 
+pub mod cases;
+pub mod claims;
+pub mod exact;
+pub mod random_spec;
+
 use qloop::ir::SigId;
 use qloop::{Plan, Target};
 use std::path::PathBuf;
@@ -23,6 +28,42 @@ pub fn all_specs() -> Vec<(String, String)> {
         .collect();
     v.sort();
     v
+}
+
+/// The claim corpus (`tests/fixtures/claims`), as (file stem, source text), sorted by name.
+pub fn claim_corpus() -> Vec<(String, String)> {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fixtures/claims");
+    let mut v: Vec<_> = std::fs::read_dir(dir)
+        .expect("tests/fixtures/claims")
+        .filter_map(|e| e.ok())
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "qloop"))
+        .map(|p| {
+            let stem = p.file_stem().unwrap().to_string_lossy().into_owned();
+            (stem, std::fs::read_to_string(&p).unwrap())
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+/// What the first line of a corpus spec expects: `None` for `// expect: compiles`, else the
+/// error's (line, column, text) from `// expect-error LINE:COL: TEXT`.
+pub fn corpus_expectation(src: &str) -> Option<(usize, usize, String)> {
+    let first = src.lines().next().unwrap_or("");
+    if first.trim() == "// expect: compiles" {
+        return None;
+    }
+    let rest = first
+        .strip_prefix("// expect-error ")
+        .unwrap_or_else(|| panic!("corpus spec without an expectation: {first}"));
+    let (at, text) = rest.split_once(": ").expect("`LINE:COL: TEXT`");
+    let (l, c) = at.split_once(':').expect("LINE:COL");
+    Some((
+        l.parse().expect("line"),
+        c.parse().expect("column"),
+        text.to_string(),
+    ))
 }
 
 /// The compiled plan of a seed spec, for the default target.

@@ -41,6 +41,7 @@ fn refuted(name: &str) -> (Plan, Outcome) {
         timeout_ms: 20_000,
         cache_dir: None,
         jobs: 2,
+        deadline: None,
     };
     let report = qloop::prove::prove(&plan, &cfg, &mut |_, _| {});
     let table = report.table(&plan);

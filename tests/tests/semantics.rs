@@ -131,7 +131,7 @@ proptest! {
         // The bound holds when both take the same branches.
         let mut fv = vars_fixed(p, &[("fc", fc.into()), ("km", km.into()), ("kc", kc.into()), ("u", u.into())]);
         let fd = step_fixed(p, &mut fv).unwrap();
-        prop_assume!(fd == rd, "fixed and real took different branches");
+        prop_assume!(qloop::interp::agree(&fd, &rd), "fixed and real took different branches");
         let s = c.states();
         for (name, fixed, real) in [
             ("km", s.km.to_num::<f64>(), r.states().km),

@@ -60,6 +60,7 @@ fn evaluate(queries: &[Query], solver: Solver, stem: &str) -> Vec<Vec<(String, u
         timeout_ms: 30_000,
         cache_dir: None,
         jobs: 2,
+        deadline: None,
     };
     run_all(queries, &cfg, &mut |_, _| {})
         .into_iter()
@@ -154,6 +155,7 @@ fn proves_with_both_solvers(stem: &str) {
         timeout_ms: 120_000,
         cache_dir: None,
         jobs: 2,
+        deadline: None,
     };
     let report = qloop::prove::prove(&p, &cfg, &mut |_, _| {});
     assert!(report.proved(), "{}", report.table(&p));

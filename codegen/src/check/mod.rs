@@ -603,7 +603,12 @@ impl Checker {
                 SExpr::Block(b) => block_value(&b.block)?,
                 other => other,
             },
-            None => return Err(Diag::new(i.span(), "an `if` used as a value needs an `else`")),
+            None => {
+                return Err(Diag::new(
+                    i.span(),
+                    "an `if` used as a value needs an `else`",
+                ))
+            }
         };
         Ok(Expr::Select(
             Box::new(cond),
@@ -614,23 +619,23 @@ impl Checker {
 
     fn builtin(&self, f: &syn::Ident, args: &[&SExpr], span: Span) -> Result<Expr> {
         let n = f.to_string();
-        let want = match n.as_str() {
-            "min" | "max" => 2,
-            "clamp" => 3,
-            "div" | "recip" | "div_euclid" | "rem" | "rem_euclid" | "checked_div"
-            | "wrapping_div" | "saturating_div" | "inv" => {
-                return Err(Diag::new(f.span(), format!("`{n}` divides: division is not allowed in a qloop spec"))
+        let want =
+            match n.as_str() {
+                "min" | "max" => 2,
+                "clamp" => 3,
+                "div" | "recip" | "div_euclid" | "rem" | "rem_euclid" | "checked_div"
+                | "wrapping_div" | "saturating_div" | "inv" => {
+                    return Err(Diag::new(
+                        f.span(),
+                        format!("`{n}` divides: division is not allowed in a qloop spec"),
+                    )
                     .label("division")
                     .help(DIVISION_HELP))
-            }
-            _ => {
-                return Err(
-                    Diag::new(f.span(), format!("unknown function `{n}`")).help(
-                        "the built-in functions are `min(a, b)`, `max(a, b)` and `clamp(x, lo, hi)`",
-                    ),
-                )
-            }
-        };
+                }
+                _ => return Err(Diag::new(f.span(), format!("unknown function `{n}`")).help(
+                    "the built-in functions are `min(a, b)`, `max(a, b)` and `clamp(x, lo, hi)`",
+                )),
+            };
         if args.len() != want {
             return Err(Diag::new(span, format!("`{n}` takes {want} arguments")));
         }

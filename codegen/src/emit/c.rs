@@ -296,12 +296,12 @@ fn body(plan: &Plan, include: bool) -> String {
         o,
         "void {n}_step({n}_state *self, const {n}_inputs *in, {n}_outputs *out)\n{{"
     );
-    // A controller without states or inputs still takes both pointers (one signature for
-    // every controller); say that they are unused on purpose.
+    // A controller without states, or whose step reads no input, still takes both pointers
+    // (one signature for every controller); say that they are unused on purpose.
     if states.is_empty() {
         let _ = writeln!(o, "    (void)self;");
     }
-    if ids(plan, SigKind::Input).is_empty() {
+    if !plan.vals.iter().any(|v| matches!(v.op, Op::Input(_))) {
         let _ = writeln!(o, "    (void)in;");
     }
     for id in &states {

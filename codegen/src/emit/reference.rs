@@ -87,9 +87,22 @@ pub fn module(plan: &Plan) -> TokenStream {
         let n = name(id);
         quote! { self.#n, }
     });
+    // Controllers without states or inputs keep the same signatures.
+    let no_states = if states.is_empty() {
+        quote! { let _ = s; }
+    } else {
+        quote! {}
+    };
+    let no_inputs = if inputs.is_empty() {
+        quote! { let _ = i; }
+    } else {
+        quote! {}
+    };
     quote! {
         #[doc = #doc]
-        #[allow(#allows)]
+        // The reference reads the spec as written: an input or `let` the step never uses is
+        // an unused variable here (the fixed-point plan drops it).
+        #[allow(#allows, unused_variables)]
         pub mod #modname {
             #tables
 
@@ -121,6 +134,7 @@ pub fn module(plan: &Plan) -> TokenStream {
                 }
                 /// Overwrites the states, saturating each to its declared range.
                 pub fn set_states(&mut self, s: States) {
+                    #no_states
                     #(#setters)*
                 }
                 /// The current states, in the order of [`STATES`].
@@ -130,6 +144,7 @@ pub fn module(plan: &Plan) -> TokenStream {
                 /// [`Reference::step`] on arrays, for generic runners: inputs in the order of
                 /// [`INPUTS`], outputs in the order of [`OUTPUTS`].
                 pub fn step_values(&mut self, i: [f64; #ni]) -> [f64; #no] {
+                    #no_inputs
                     let o = self.step(Inputs { #(#in_vals)* });
                     [#(#out_vals)*]
                 }

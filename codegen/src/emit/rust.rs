@@ -104,8 +104,25 @@ pub fn module(plan: &Plan) -> TokenStream {
         quote! { self.#name as i64, }
     });
 
+    // A step that reads no input still takes them (one signature for every controller).
+    let unused_inputs = if plan.vals.iter().any(|v| matches!(v.op, Op::Input(_))) {
+        quote! {}
+    } else {
+        quote! { let _ = inputs; }
+    };
     let keep = if plan.vals.iter().any(|v| v.network) {
         keep_fn()
+    } else {
+        quote! {}
+    };
+    // Controllers without states or inputs keep the same signatures.
+    let no_states = if states.is_empty() {
+        quote! { let _ = s; }
+    } else {
+        quote! {}
+    };
+    let no_inputs = if inputs.is_empty() {
+        quote! { let _ = i; }
     } else {
         quote! {}
     };
@@ -155,6 +172,7 @@ pub fn module(plan: &Plan) -> TokenStream {
 
                 /// Overwrites the states, saturating each to its declared range.
                 pub fn set_states(&mut self, s: States) {
+                    #no_states
                     #(#setters)*
                 }
 
@@ -168,12 +186,14 @@ pub fn module(plan: &Plan) -> TokenStream {
                 /// glue): inputs in the order of [`INPUTS`], each saturated to its type, and
                 /// outputs in the order of [`OUTPUTS`].
                 pub fn step_bits(&mut self, i: [i64; #ni]) -> [i64; #no] {
+                    #no_inputs
                     let o = self.step(Inputs { #(#in_bits)* });
                     [#(#out_bits)*]
                 }
 
                 /// One control period: reads the inputs, updates the states, returns the outputs.
                 pub fn step(&mut self, inputs: Inputs) -> Outputs {
+                    #unused_inputs
                     #(#load_states)*
                     #(#decl_outputs)*
                     #body

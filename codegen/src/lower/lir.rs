@@ -41,6 +41,10 @@ pub struct Val {
     pub network: bool,
     /// Spec line of the statement this value was lowered from (0 if unknown).
     pub line: usize,
+    /// For a comparison: its static number among the spec's comparisons
+    /// ([`crate::ir::comparisons_in`]), so that the fixed step's decisions can be matched with
+    /// the reference's, also where a dead comparison was removed.
+    pub decision: Option<usize>,
 }
 
 /// An integer operation. Operand types equal the result type except where noted.

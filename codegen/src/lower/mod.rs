@@ -16,6 +16,7 @@
 //! * Stores saturate to the declared range (quantised inward); clamps the analysis proves
 //!   unnecessary are not emitted. Inputs are clamped to their declared range on entry.
 
+pub mod dce;
 pub mod lir;
 pub mod shift_add;
 pub mod target;
@@ -293,6 +294,8 @@ struct Lowerer<'a> {
     mults: Vec<MulNote>,
     /// Spec line of the statement being lowered.
     line: usize,
+    /// Comparisons lowered so far (the next one's [`Val::decision`]).
+    decisions: usize,
 }
 
 struct Lowered {
@@ -354,12 +357,13 @@ impl Lowered {
                 }
             })
             .collect();
+        let (vals, body) = dce::eliminate(self.vals, self.body);
         Plan {
             prog: self.prog,
             target: self.target,
             formats,
-            vals: self.vals,
-            body: self.body,
+            vals,
+            body,
             summary,
             mults: self.mults,
         }
@@ -380,6 +384,7 @@ impl<'a> Lowerer<'a> {
             received: HashMap::new(),
             mults: Vec::new(),
             line: 0,
+            decisions: 0,
         }
     }
 
@@ -417,8 +422,16 @@ impl<'a> Lowerer<'a> {
             // inside, where the reference clamps to the bound itself: that gap is the input's
             // error.
             if let Some((l, h)) = self.prog.sig(id).range {
-                let below = if q.ty.min() < lo { q.value(lo) - l } else { 0.0 };
-                let above = if q.ty.max() > hi { h - q.value(hi) } else { 0.0 };
+                let below = if q.ty.min() < lo {
+                    q.value(lo) - l
+                } else {
+                    0.0
+                };
+                let above = if q.ty.max() > hi {
+                    h - q.value(hi)
+                } else {
+                    0.0
+                };
                 self.vals[v.0].err = below.max(above).max(0.0);
             }
             self.vals[v.0].name = Some(self.prog.sig(id).name.clone());
@@ -490,6 +503,7 @@ impl<'a> Lowerer<'a> {
             claimed: false,
             network: false,
             line: self.line,
+            decision: None,
         });
         out.push(LStmt::Def(id));
         id
@@ -625,6 +639,9 @@ impl<'a> Lowerer<'a> {
         let mut x = x;
         if self.prog.rounding == Rounding::Nearest {
             let h = 1i128 << (n - 1);
+            if IntTy::signed_for(x.lo, x.hi + h, 8).is_none() {
+                return Ok(self.round_nearest_in_place(v, n, frac, added, out));
+            }
             // The type holds the operand as well as the sum.
             let ty = self.working(x.lo, x.hi + h, span)?;
             let c = self.cast(src, ty, out);
@@ -634,6 +651,47 @@ impl<'a> Lowerer<'a> {
         }
         let k = n.min(x.ty.bits - 1);
         Ok(self.push(Op::Shr(src, k), x.ty, frac, lo, hi, x.err + added, out))
+    }
+
+    /// Nearest rounding of a full-width 64-bit value, where `x + 2^(n-1)` would overflow:
+    /// `(x >> n) + b` with `b = (x >> (n-1)) − 2·(x >> n)`, bit `n − 1` of `x`. Equal to
+    /// `(x + 2^(n-1)) >> n` (write `x = q·2^n + r`: both are `q + [r ≥ 2^(n-1)]`), and no
+    /// intermediate is wider than `x`. `b ∈ {0, 1}` is a fact about the two shifts of one `x`
+    /// that interval arithmetic cannot see, so it is marked claimed: the prover discharges it
+    /// with a whole-step query.
+    fn round_nearest_in_place(
+        &mut self,
+        v: ValId,
+        n: u32,
+        frac: i32,
+        added: f64,
+        out: &mut Vec<LStmt>,
+    ) -> ValId {
+        let x = self.v(v).clone();
+        let (ty, f) = (x.ty, x.frac);
+        let q = self.push(Op::Shr(v, n), ty, frac, x.lo >> n, x.hi >> n, x.err, out);
+        let (ql, qh) = (x.lo >> n, x.hi >> n);
+        let half = self.push(
+            Op::Shr(v, n - 1),
+            ty,
+            f - n as i32 + 1,
+            x.lo >> (n - 1),
+            x.hi >> (n - 1),
+            x.err,
+            out,
+        );
+        let twice = self.push(
+            Op::Shl(q, 1),
+            ty,
+            f - n as i32 + 1,
+            2 * ql,
+            2 * qh,
+            x.err,
+            out,
+        );
+        let bit = self.push(Op::Sub(half, twice), ty, f - n as i32 + 1, 0, 1, 0.0, out);
+        self.vals[bit.0].claimed = true;
+        self.push(Op::Add(q, bit), ty, frac, ql, qh + 1, x.err + added, out)
     }
 
     /// `v` re-expressed with `frac` fraction bits.
@@ -814,8 +872,28 @@ impl<'a> Lowerer<'a> {
             );
             return Ok(());
         };
-        let mut v = self.rescale(v, q.frac, span, out)?;
         let (lo, hi) = self.bounds(target);
+        let sig = self.prog.sig(target);
+        let mut v = v;
+        // Whether the value is saturated before it is shifted (then the gap counts even if
+        // the shifted value lands exactly on a bound).
+        let mut pre_clamped = false;
+        if sig.range.is_some() && !sig.unsaturated && q.frac > x.frac {
+            // A left shift to the storage format that would overflow 64 bits (a value far
+            // beyond the range, or a full-width `word 64` sum): saturate first, in the
+            // value's own format, to one step beyond the bounds. The shift then fits, and
+            // the exact clamp after it gives the same result as shifting first.
+            let s = (q.frac - x.frac) as u32;
+            let fits = shl_exact(x.lo, s as i32)
+                .zip(shl_exact(x.hi, s as i32))
+                .is_some_and(|(l, h)| IntTy::signed_for(l.min(x.lo), h.max(x.hi), 8).is_some());
+            if !fits {
+                let (plo, phi) = (lo >> s, -((-hi) >> s));
+                pre_clamped = x.lo < plo || x.hi > phi;
+                v = self.clamp(v, plo, phi, out)?;
+            }
+        }
+        let mut v = self.rescale(v, q.frac, span, out)?;
         let y = self.v(v).clone();
         let received = (y.lo as f64 * pow2(-y.frac), y.hi as f64 * pow2(-y.frac));
         widen(&mut self.received, target, received);
@@ -829,7 +907,7 @@ impl<'a> Lowerer<'a> {
                 v = self.push(Op::Cast(v), ty, x.frac, cl, ch, x.err, out);
                 self.vals[v.0].claimed = true;
             }
-        } else if y.lo < lo || y.hi > hi {
+        } else if pre_clamped || y.lo < lo || y.hi > hi {
             v = self.clamp(v, lo, hi, out)?;
             if let Some((l, h)) = self.prog.sig(target).range {
                 let gap = (q.value(lo) - l).max(h - q.value(hi)).max(0.0);
@@ -1348,6 +1426,18 @@ impl<'a> Lowerer<'a> {
     /// the operands' error bounds; 0 for exact operands, such as inputs compared with
     /// constants).
     fn cond(&mut self, c: &Cond, out: &mut Vec<LStmt>) -> Result<ValId> {
+        if let Cond::Cmp(..) = c {
+            let k = self.decisions;
+            self.decisions += 1;
+            let id = self.comparison(c, out)?;
+            self.vals[id.0].decision = Some(k);
+            return Ok(id);
+        }
+        self.comparison(c, out)
+    }
+
+    /// [`Self::cond`] without numbering its comparison.
+    fn comparison(&mut self, c: &Cond, out: &mut Vec<LStmt>) -> Result<ValId> {
         let (op, err) = match c {
             Cond::Cmp(op, Expr::Const { value: x, .. }, Expr::Const { value: y, .. }) => {
                 return self.decided(op.eval(x, y), out);

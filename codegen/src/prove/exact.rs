@@ -965,6 +965,7 @@ mod tests {
             timeout_ms: 30_000,
             cache_dir: None,
             jobs: 2,
+            deadline: None,
         };
         for (q, run) in queries.iter().zip(run_all(&queries, &cfg, &mut |_, _| {})) {
             assert_eq!(run[0].answer, Answer::Sat(vec![]), "{}", q.script);

@@ -166,6 +166,9 @@ pub struct Config {
     /// Maximum number of solver processes at once (default: the available parallelism);
     /// 0 is treated as 1.
     pub jobs: usize,
+    /// When the whole proof must end (default: never). A run still going then is stopped (a
+    /// timeout); a run not yet started is not started, and says so.
+    pub deadline: Option<Instant>,
 }
 
 impl Default for Config {
@@ -175,6 +178,7 @@ impl Default for Config {
             timeout_ms: 60_000,
             cache_dir: None,
             jobs: thread::available_parallelism().map_or(1, |n| n.get()),
+            deadline: None,
         }
     }
 }
@@ -382,12 +386,30 @@ fn run_one(
         }
     }
     let start = Instant::now();
+    // The per-query timeout, cut short by the proof's deadline.
+    let timeout_ms = match cfg.deadline {
+        None => cfg.timeout_ms,
+        Some(end) => {
+            let left = end.saturating_duration_since(start).as_millis();
+            if left == 0 {
+                return Run {
+                    solver,
+                    answer: Answer::Error(
+                        "not run: the proof's time limit (--timeout) was reached first".into(),
+                    ),
+                    millis: 0,
+                    cached: false,
+                };
+            }
+            cfg.timeout_ms.min(u64::try_from(left).unwrap_or(u64::MAX))
+        }
+    };
     let answer = execute(
         solver.name(),
-        &solver.args(cfg.timeout_ms),
+        &solver.args(timeout_ms),
         text,
         want,
-        Duration::from_millis(cfg.timeout_ms),
+        Duration::from_millis(timeout_ms),
         cancel,
     );
     let millis = u64::try_from(start.elapsed().as_millis()).unwrap_or(u64::MAX);
@@ -1145,6 +1167,7 @@ mod tests {
             timeout_ms,
             cache_dir: None,
             jobs: 4,
+            deadline: None,
         }
     }
 
@@ -1384,6 +1407,40 @@ mod tests {
     }
 
     #[test]
+    fn the_deadline_stops_running_queries_and_skips_the_rest() {
+        let hard = Query {
+            script: "(set-logic QF_BV)\n(declare-fun p () (_ BitVec 64))\n(declare-fun q () (_ BitVec 64))\n\
+(assert (= (bvmul ((_ zero_extend 32) ((_ extract 31 0) p)) ((_ zero_extend 32) ((_ extract 31 0) q))) #x0000c5beb0f6e7b1))\n\
+(assert (bvugt ((_ extract 31 0) p) #x00000001))\n(assert (bvugt ((_ extract 31 0) q) #x00000001))\n".into(),
+            want: vec![],
+        };
+        if !Solver::Z3.available() {
+            return;
+        }
+        let start = Instant::now();
+        let cfg = Config {
+            solvers: vec![Solver::Z3],
+            timeout_ms: 60_000,
+            cache_dir: None,
+            jobs: 1,
+            deadline: Some(start + Duration::from_secs(2)),
+        };
+        let runs = run_all(&[hard.clone(), hard], &cfg, &mut |_, _| {});
+        assert_eq!(runs[0][0].answer, Answer::Timeout, "{:?}", runs[0][0]);
+        assert!(
+            matches!(&runs[1][0].answer, Answer::Error(m) if m.contains("time limit")),
+            "{:?}",
+            runs[1][0]
+        );
+        // Stopped at the deadline, not after the 60 s per-query timeout.
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "{:?}",
+            start.elapsed()
+        );
+    }
+
+    #[test]
     fn a_proof_cancels_the_rest_of_its_group() {
         // Query 0 is proved at once; query 1 (same group) would run for a minute.
         let easy = Query {
@@ -1401,6 +1458,7 @@ mod tests {
             timeout_ms: 60_000,
             cache_dir: None,
             jobs: 1,
+            deadline: None,
         };
         let start = Instant::now();
         let runs = run_all_grouped(

@@ -47,8 +47,11 @@ pub fn brackets(src: &str) -> Result<()> {
                 continue;
             }
             b'/' if b.get(i + 1) == Some(&b'*') => {
-                i = block_comment_end(b, i)
-                    .ok_or_else(|| located(src, i, "unterminated block comment").label("opened here, never closed").help("close it with `*/`"))?;
+                i = block_comment_end(b, i).ok_or_else(|| {
+                    located(src, i, "unterminated block comment")
+                        .label("opened here, never closed")
+                        .help("close it with `*/`")
+                })?;
                 continue;
             }
             b'"' => {
@@ -116,8 +119,7 @@ pub fn brackets(src: &str) -> Result<()> {
         i += 1;
     }
     if let Some(&(o, at)) = open.last() {
-        let mut d = located(src, at, format!("unclosed `{o}`"))
-            .label("opened here, never closed");
+        let mut d = located(src, at, format!("unclosed `{o}`")).label("opened here, never closed");
         let outer: Vec<String> = open[..open.len() - 1]
             .iter()
             .rev()
@@ -126,10 +128,7 @@ pub fn brackets(src: &str) -> Result<()> {
                 format!("`{c}` at {l}:{col}")
             })
             .collect();
-        let mut help = format!(
-            "close it with `{}`; is the spec cut short?",
-            closer(o)
-        );
+        let mut help = format!("close it with `{}`; is the spec cut short?", closer(o));
         if !outer.is_empty() {
             help.push_str(&format!(" Also still open: {}", outer.join(", ")));
         }
@@ -189,7 +188,13 @@ fn raw_string_end(b: &[u8], i: usize) -> Option<usize> {
     }
     let mut j = i + hashes + 1;
     while j < b.len() {
-        if b[j] == b'"' && b[j + 1..].iter().take(hashes).filter(|&&x| x == b'#').count() == hashes
+        if b[j] == b'"'
+            && b[j + 1..]
+                .iter()
+                .take(hashes)
+                .filter(|&&x| x == b'#')
+                .count()
+                == hashes
         {
             return Some(j + 1 + hashes);
         }
@@ -206,7 +211,11 @@ fn char_end(b: &[u8], i: usize) -> usize {
         while j < b.len() && b[j] != b'\'' && b[j] != b'\n' {
             j += 1;
         }
-        return if b.get(j) == Some(&b'\'') { j + 1 } else { i + 1 };
+        return if b.get(j) == Some(&b'\'') {
+            j + 1
+        } else {
+            i + 1
+        };
     }
     // One UTF-8 character, then a closing quote.
     let len = match b.get(i + 1) {
@@ -438,13 +447,20 @@ mod tests {
 
     #[test]
     fn nesting_limits_are_located() {
-        let deep = format!("y = {}x{};", "(".repeat(MAX_NESTING + 1), ")".repeat(MAX_NESTING + 1));
+        let deep = format!(
+            "y = {}x{};",
+            "(".repeat(MAX_NESTING + 1),
+            ")".repeat(MAX_NESTING + 1)
+        );
         let d = brackets(&deep).expect_err("too deep");
         assert!(d.message.contains("nest more than"), "{}", d.message);
         assert_eq!(d.line_col(), (1, 5 + MAX_NESTING));
         let t = |s: &str| nesting(&s.parse().expect("lexes"));
         let neg = format!("y = {}x;", "-".repeat(MAX_NESTING + 1));
-        assert!(t(&neg).expect_err("unary run").message.contains("nests more than"));
+        assert!(t(&neg)
+            .expect_err("unary run")
+            .message
+            .contains("nests more than"));
         t(&format!("y = {}x;", "-".repeat(MAX_NESTING - 1))).expect("within the limit");
         let sum = format!("y = {};", vec!["x"; MAX_LENGTH + 2].join(" + "));
         assert!(t(&sum).expect_err("long sum").message.contains("too long"));
@@ -458,6 +474,9 @@ mod tests {
             "{{ if x > 0.0 {{ y = x; }} {} else {{ y = x; }} }}",
             "else if x > 0.0 { y = x; } ".repeat(MAX_NESTING + 1)
         );
-        assert!(t(&chain).expect_err("else-if chain").message.contains("nests more than"));
+        assert!(t(&chain)
+            .expect_err("else-if chain")
+            .message
+            .contains("nests more than"));
     }
 }

@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Runs each fuzz target for SECONDS (default 60), seeded with every spec in the repository.
+# Needs nightly and cargo-fuzz:  rustup toolchain install nightly && cargo install cargo-fuzz
+# Usage: bash codegen/fuzz/run.sh [SECONDS] [TARGET...]
+set -euo pipefail
+cd "$(dirname "$0")"
+secs=${1:-60}
+shift || true
+targets=("$@")
+[ ${#targets[@]} -gt 0 ] || targets=(parse check_lower pipeline)
+for t in "${targets[@]}"; do
+    corpus="corpus/$t"
+    mkdir -p "$corpus"
+    # Seeds: the seed specs, the refutation corpus, the claim corpus, the compiler's fixtures.
+    for f in ../../verified/specs/*.qloop ../../tests/fixtures/*/*.qloop ../tests/fixtures/*.qloop; do
+        cp -n "$f" "$corpus/seed-$(basename "$f")" 2>/dev/null || true
+    done
+    echo "== fuzz target $t for ${secs}s ($(ls "$corpus" | wc -l) inputs in the corpus)"
+    cargo +nightly fuzz run --debug-assertions "$t" "$corpus" -- -max_total_time="$secs" -timeout=20 -rss_limit_mb=4096 -print_final_stats=1
+done

@@ -1,0 +1,107 @@
+//! Bounds that hold, tested independently: the compiled plans of random specs, the seed specs
+//! and the claim corpus run against exact rational arithmetic (`qloop_tests::exact`, written
+//! apart from the compiler), on inputs aimed at the entry clamp, the range bounds, the
+//! saturation bounds and every constant threshold (`qloop_tests::cases`). For every signal:
+//! observed |fixed − exact| ≤ the bound as `qloop check` prints it; where a branch decision
+//! differs, the operands were within the comparison's printed band. Every shift is narrower
+//! than its operand.
+//!
+//! The plan interpreter stands in for the emitted code here; `random_compile.rs` ties the two
+//! together bit for bit.
+
+use qloop::Target;
+use qloop_tests::cases::cases;
+use qloop_tests::claims::{check, shifts_within_width};
+use qloop_tests::random_spec::{legitimate_refusal, run_seed, sample};
+
+/// Compiled random specs per run.
+const SPECS: usize = 10_000;
+/// Random cases per spec, on top of one case per candidate value of each signal.
+const RANDOM_CASES: usize = 4;
+
+/// Compiles specs drawn with `seed` until `want` compile; checks each. Returns (compiled,
+/// refused, cases, bound comparisons, branch differences) or the first failure.
+fn run(seed: u64, want: usize) -> Result<[usize; 5], String> {
+    let target = Target::default();
+    let mut n = [0usize; 5];
+    let mut batch = 0u64;
+    while n[0] < want {
+        for sp in sample(seed.wrapping_add(batch), 500) {
+            if n[0] == want {
+                break;
+            }
+            let plan = match qloop::compile_str(&sp.src, &target) {
+                Ok(p) => p,
+                Err(e) if legitimate_refusal(&e.message) => {
+                    n[1] += 1;
+                    continue;
+                }
+                Err(e) => return Err(format!("unexpected refusal `{}` of\n{}", e.message, sp.src)),
+            };
+            n[0] += 1;
+            shifts_within_width(&plan).map_err(|e| format!("{e} in\n{}", sp.src))?;
+            let mut s = seed ^ (n[0] as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
+            for case in cases(&plan, &mut s, RANDOM_CASES) {
+                let c = check(&plan, &case)
+                    .map_err(|e| format!("{e}\ncase {case:?}\nspec:\n{}", sp.src))?;
+                n[2] += 1;
+                n[3] += c.bounds;
+                n[4] += usize::from(c.branch_differed);
+            }
+        }
+        batch += 1;
+    }
+    Ok(n)
+}
+
+#[test]
+fn printed_bounds_hold_against_exact_arithmetic_on_random_specs() {
+    let seed = run_seed("printed_bounds_hold_against_exact_arithmetic_on_random_specs");
+    let threads = std::thread::available_parallelism()
+        .map_or(2, |n| n.get())
+        .clamp(1, 8);
+    let per = SPECS.div_ceil(threads);
+    let results: Vec<Result<[usize; 5], String>> = std::thread::scope(|s| {
+        let hs: Vec<_> = (0..threads as u64)
+            .map(|t| s.spawn(move || run(seed.wrapping_add(t << 32), per)))
+            .collect();
+        hs.into_iter()
+            .map(|h| h.join().unwrap_or_else(|_| Err("a worker panicked".into())))
+            .collect()
+    });
+    let mut total = [0usize; 5];
+    for r in results {
+        let n = r.unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        for (t, x) in total.iter_mut().zip(n) {
+            *t += x;
+        }
+    }
+    eprintln!(
+        "{} specs compiled ({} refused with a located, documented error), {} cases, {} \
+         bounds compared, {} decisions within their band",
+        total[0], total[1], total[2], total[3], total[4]
+    );
+    assert!(total[0] >= SPECS, "only {} specs compiled", total[0]);
+    // The corners must be reached: many cases, and some decided inside a band.
+    assert!(total[2] >= 10 * SPECS, "only {} cases", total[2]);
+}
+
+#[test]
+fn printed_bounds_hold_on_the_seed_specs_and_the_corpus() {
+    let target = Target::default();
+    let mut specs = qloop_tests::all_specs();
+    specs.extend(qloop_tests::claim_corpus());
+    for (name, src) in specs {
+        let Ok(plan) = qloop::compile_str(&src, &target) else {
+            continue; // corpus specs that must be refused are tested in claims.rs
+        };
+        shifts_within_width(&plan).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let mut seed = 0x5eed;
+        let mut n = 0;
+        for case in cases(&plan, &mut seed, 2000) {
+            let c = check(&plan, &case).unwrap_or_else(|e| panic!("{name}: {e}\n{case:?}"));
+            n += c.bounds;
+        }
+        assert!(n > 0, "{name}: no bound was compared");
+    }
+}

@@ -1,0 +1,350 @@
+//! Proved implies compiles: every spec qloop accepts has Rust and C that compile and compute
+//! what the plan interpreter computes, bit for bit.
+//!
+//! At least 200 random specs per run (`qloop_tests::random_spec`: constants from 1e-15 to
+//! 1e15, thresholds, off-grid bounds, unsigned pins, no-state specs), plus the seed specs and
+//! the claim corpus, are emitted into one Rust crate (a debug build with the default lints:
+//! `arithmetic_overflow` is an error, and overflow checks are on at run time) and one C file
+//! (`gcc -std=c99 -pedantic -Wall -Wextra -Werror`, with `-fsanitize=undefined` aborting on
+//! any undefined behaviour); the crate also holds each spec's f64 reference module. Both are run on the same cases (aimed at clamps, thresholds and
+//! saturation, `qloop_tests::cases`) and must print exactly what `step_fixed` computes; the
+//! Rust build must also be free of warnings.
+
+use qloop::interp::step_fixed;
+use qloop::ir::{SigId, SigKind};
+use qloop::{Plan, Target};
+use qloop_tests::cases::{cases, Case};
+use qloop_tests::random_spec::{legitimate_refusal, run_seed, sample};
+use qloop_tests::{all_specs, claim_corpus, corpus_expectation, run, tool};
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+/// Random specs per run.
+const RANDOM_SPECS: usize = 200;
+
+fn ids(plan: &Plan, k: SigKind) -> Vec<SigId> {
+    plan.prog.ids_of(k).collect()
+}
+
+/// The Rust driver: every module, and a dispatcher reading `k | states | inputs` lines and
+/// printing `outputs | states` after one step.
+fn rust_main(plans: &[Plan]) -> String {
+    let mut o = String::from("#![allow(clippy::all)]\nuse std::io::BufRead;\n\n");
+    for p in plans {
+        o.push_str(&qloop::gen_rust(p));
+        o.push_str(&qloop::gen_reference(p));
+        o.push('\n');
+    }
+    o.push_str("fn run(k: usize, s: &[i64], i: &[i64]) -> (Vec<i64>, Vec<i64>) {\n    match k {\n");
+    for (k, p) in plans.iter().enumerate() {
+        let m = &p.prog.name;
+        let fields: String = ids(p, SigKind::State)
+            .iter()
+            .enumerate()
+            .map(|(j, id)| {
+                let q = p.format(*id);
+                format!(
+                    "{}: <{}>::from_bits(s[{j}] as {}), ",
+                    p.prog.sig(*id).name,
+                    qloop::emit::rust::fixed_ty(q),
+                    q.ty.rust_name()
+                )
+            })
+            .collect();
+        let ni = ids(p, SigKind::Input).len();
+        let inputs: String = (0..ni).map(|j| format!("i[{j}], ")).collect();
+        let _ = writeln!(
+            o,
+            "        {k} => {{\n            let mut c = {m}::Controller::new();\n            \
+             c.set_states({m}::States {{ {fields} }});\n            \
+             let out = c.step_bits([{inputs}]);\n            \
+             (out.to_vec(), c.state_bits().to_vec())\n        }}"
+        );
+    }
+    o.push_str("        _ => panic!(\"no spec {k}\"),\n    }\n}\n\n");
+    o.push_str(
+        r#"fn main() {
+    for line in std::io::stdin().lock().lines() {
+        let line = line.expect("stdin");
+        let parts: Vec<&str> = line.split('|').collect();
+        let nums = |s: &str| -> Vec<i64> { s.split_whitespace().map(|x| x.parse().expect("int")).collect() };
+        let k: usize = parts[0].trim().parse().expect("k");
+        let (o, s) = run(k, &nums(parts[1]), &nums(parts[2]));
+        let j = |v: &[i64]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(" ");
+        println!("{} | {}", j(&o), j(&s));
+    }
+}
+"#,
+    );
+    o
+}
+
+/// The C driver: every controller (`qloop::emit::c::single_unit`) in one file, and a `main`
+/// that reads the same lines as the Rust one.
+fn c_main(plans: &[Plan]) -> String {
+    let mut o = String::from("#include <stdio.h>\n\n");
+    for p in plans {
+        o.push_str(&qloop::emit::c::single_unit(p));
+        o.push('\n');
+    }
+    let c = qloop::emit::c::ident;
+    for (k, p) in plans.iter().enumerate() {
+        let n = &p.prog.name;
+        let _ = writeln!(
+            o,
+            "static int run_{k}(void)\n{{\n    {n}_state st;\n    {n}_inputs in;\n    \
+             {n}_outputs out;\n    long long v;\n    {n}_init(&st);"
+        );
+        for id in ids(p, SigKind::State) {
+            let _ = writeln!(
+                o,
+                "    if (scanf(\"%lld\", &v) != 1) return 1;\n    st.{} = ({})v;",
+                c(&p.prog.sig(id).name),
+                qloop::emit::c::c_ty(p.format(id).ty)
+            );
+        }
+        let _ = writeln!(o, "    if (scanf(\" |\") != 0) return 1;");
+        if ids(p, SigKind::Input).is_empty() {
+            let _ = writeln!(o, "    in.unused_ = 0u;");
+        }
+        for id in ids(p, SigKind::Input) {
+            let _ = writeln!(
+                o,
+                "    if (scanf(\"%lld\", &v) != 1) return 1;\n    in.{} = ({})v;",
+                c(&p.prog.sig(id).name),
+                qloop::emit::c::c_ty(p.format(id).ty)
+            );
+        }
+        let _ = writeln!(o, "    {n}_step(&st, &in, &out);\n    (void)v;");
+        let outs: Vec<String> = ids(p, SigKind::Output)
+            .iter()
+            .map(|id| format!("(long long)out.{}", c(&p.prog.sig(*id).name)))
+            .collect();
+        let sts: Vec<String> = ids(p, SigKind::State)
+            .iter()
+            .map(|id| format!("(long long)st.{}", c(&p.prog.sig(*id).name)))
+            .collect();
+        let fmt = |n: usize| vec!["%lld"; n].join(" ");
+        let args: Vec<String> = outs.iter().chain(&sts).cloned().collect();
+        let _ = writeln!(
+            o,
+            "    printf(\"{} | {}\\n\"{}{});\n    return 0;\n}}\n",
+            fmt(outs.len()),
+            fmt(sts.len()),
+            if args.is_empty() { "" } else { ", " },
+            args.join(", ")
+        );
+    }
+    o.push_str("int main(void)\n{\n    int k;\n    while (scanf(\"%d |\", &k) == 1) {\n        int r = 1;\n        switch (k) {\n");
+    for k in 0..plans.len() {
+        let _ = writeln!(o, "        case {k}: r = run_{k}(); break;");
+    }
+    o.push_str("        default: break;\n        }\n        if (r != 0) return 2;\n    }\n    return 0;\n}\n");
+    o
+}
+
+/// `k | states | inputs` for each case, and what the plan interpreter says it prints.
+fn commands(plans: &[Plan], seed: u64) -> (String, String) {
+    let (mut input, mut expect) = (String::new(), String::new());
+    for (k, p) in plans.iter().enumerate() {
+        let mut s = seed ^ (k as u64 + 1).wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
+        for Case { inputs, states } in cases(p, &mut s, 6) {
+            let j = |v: &[i128]| {
+                v.iter()
+                    .map(|x| x.to_string())
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            };
+            let _ = writeln!(input, "{k} | {} | {}", j(&states), j(&inputs));
+            let mut vars = vec![0i128; p.prog.signals.len()];
+            for (id, v) in ids(p, SigKind::State).iter().zip(&states) {
+                vars[id.0] = *v;
+            }
+            for (id, v) in ids(p, SigKind::Input).iter().zip(&inputs) {
+                vars[id.0] = *v;
+            }
+            step_fixed(p, &mut vars).unwrap_or_else(|e| panic!("{}: {e:?}", p.prog.name));
+            let outs: Vec<i128> = ids(p, SigKind::Output)
+                .iter()
+                .map(|id| vars[id.0])
+                .collect();
+            let sts: Vec<i128> = ids(p, SigKind::State).iter().map(|id| vars[id.0]).collect();
+            let _ = writeln!(expect, "{} | {}", j(&outs), j(&sts));
+        }
+    }
+    (input, expect)
+}
+
+fn run_with_stdin(exe: &Path, input: &str) -> String {
+    use std::io::Write as _;
+    let mut child = Command::new(exe)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| panic!("cannot run {}: {e}", exe.display()));
+    let mut stdin = child.stdin.take().expect("stdin");
+    let text = input.to_string();
+    let writer = std::thread::spawn(move || stdin.write_all(text.as_bytes()));
+    let out = child.wait_with_output().expect("wait");
+    let _ = writer.join();
+    assert!(
+        out.status.success(),
+        "{} failed ({}):\n{}",
+        exe.display(),
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// The first line where `got` and `want` differ, with the spec it belongs to.
+fn first_difference(plans: &[Plan], input: &str, got: &str, want: &str) -> Option<String> {
+    let (g, w): (Vec<&str>, Vec<&str>) = (got.lines().collect(), want.lines().collect());
+    let i = (0..g.len().max(w.len())).find(|&i| g.get(i) != w.get(i))?;
+    let cmd = input.lines().nth(i).unwrap_or("");
+    let k: usize = cmd.split('|').next()?.trim().parse().ok()?;
+    Some(format!(
+        "case `{cmd}`: got `{}`, want `{}` (spec `{}`)",
+        g.get(i).unwrap_or(&"<none>"),
+        w.get(i).unwrap_or(&"<none>"),
+        plans[k].prog.name
+    ))
+}
+
+/// Seed specs, the corpus specs that compile, and random specs until `RANDOM_SPECS` compile.
+fn plans(seed: u64) -> (Vec<Plan>, Vec<String>) {
+    let t = Target::default();
+    let mut plans = Vec::new();
+    let mut srcs = Vec::new();
+    for (_, src) in all_specs().into_iter().chain(
+        claim_corpus()
+            .into_iter()
+            .filter(|(_, s)| corpus_expectation(s).is_none()),
+    ) {
+        plans.push(qloop::compile_str(&src, &t).expect("compiles"));
+        srcs.push(src);
+    }
+    let mut n = 0;
+    let mut batch = 0;
+    while n < RANDOM_SPECS {
+        for sp in sample(seed.wrapping_add(batch), 400) {
+            if n == RANDOM_SPECS {
+                break;
+            }
+            let src = sp.named(&format!("r{n}"));
+            match qloop::compile_str(&src, &t) {
+                Ok(p) => {
+                    plans.push(p);
+                    srcs.push(src);
+                    n += 1;
+                }
+                Err(e) if legitimate_refusal(&e.message) => {}
+                Err(e) => panic!("unexpected refusal `{}` of\n{src}", e.message),
+            }
+        }
+        batch += 1;
+    }
+    (plans, srcs)
+}
+
+fn dir(name: &str) -> PathBuf {
+    let d = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../target/qloop-tests")
+        .join(name);
+    std::fs::create_dir_all(&d).expect("mkdir");
+    d
+}
+
+#[test]
+fn every_accepted_spec_compiles_and_runs_bit_exact_in_rust_and_c() {
+    let Some(gcc) = tool("gcc") else { return };
+    let seed = run_seed("every_accepted_spec_compiles_and_runs_bit_exact_in_rust_and_c");
+    let (plans, srcs) = plans(seed);
+    let (input, expect) = commands(&plans, seed);
+    let save = |d: &Path| {
+        // Keep what was built, for a failure's post-mortem.
+        let _ = std::fs::write(d.join("specs.txt"), srcs.join("\n"));
+        let _ = std::fs::write(d.join("input.txt"), &input);
+        let _ = std::fs::write(d.join("expect.txt"), &expect);
+    };
+
+    // C: one file, every warning an error, UBSan aborting on the first undefined behaviour.
+    let cdir = dir("random-compile-c");
+    save(&cdir);
+    std::fs::write(cdir.join("all.c"), c_main(&plans)).expect("write");
+    run(Command::new(&gcc)
+        .args([
+            "-std=c99",
+            "-pedantic",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-O1",
+        ])
+        .args(["-fsanitize=undefined", "-fno-sanitize-recover=all"])
+        .arg(cdir.join("all.c"))
+        .arg("-o")
+        .arg(cdir.join("all")));
+    let c_out = run_with_stdin(&cdir.join("all"), &input);
+    if let Some(d) = first_difference(&plans, &input, &c_out, &expect) {
+        panic!(
+            "seed {seed}: C differs from the plan interpreter: {d} (files in {})",
+            cdir.display()
+        );
+    }
+
+    // Rust: one crate, a debug build (overflow checks on), no warnings.
+    let rdir = dir("random-compile-rust");
+    save(&rdir);
+    std::fs::create_dir_all(rdir.join("src")).expect("mkdir");
+    std::fs::write(
+        rdir.join("Cargo.toml"),
+        "[package]\nname = \"qloop_random_compile\"\nversion = \"0.0.0\"\nedition = \"2021\"\n\
+         publish = false\n\n[dependencies]\nfixed = \"1.31\"\n\n[profile.dev]\ndebug = false\n\n\
+         [workspace]\n",
+    )
+    .expect("write");
+    std::fs::write(rdir.join("src/main.rs"), rust_main(&plans)).expect("write");
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let target = dir("random-compile-target");
+    let build = |offline: bool| {
+        let mut c = Command::new(&cargo);
+        c.args(["build", "--message-format", "short", "--manifest-path"])
+            .arg(rdir.join("Cargo.toml"))
+            .arg("--target-dir")
+            .arg(&target)
+            .env_remove("RUSTFLAGS");
+        if offline {
+            c.arg("--offline");
+        }
+        c.output().expect("cargo runs")
+    };
+    let mut out = build(true);
+    if !out.status.success() {
+        out = build(false);
+    }
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success(),
+        "seed {seed}: the generated Rust does not compile (crate in {}):\n{stderr}",
+        rdir.display()
+    );
+    let warnings: Vec<&str> = stderr.lines().filter(|l| l.contains("warning")).collect();
+    assert!(
+        warnings.is_empty(),
+        "seed {seed}: the generated Rust has warnings (crate in {}):\n{}",
+        rdir.display(),
+        warnings.join("\n")
+    );
+    let r_out = run_with_stdin(&target.join("debug/qloop_random_compile"), &input);
+    if let Some(d) = first_difference(&plans, &input, &r_out, &expect) {
+        panic!("seed {seed}: Rust differs from the plan interpreter: {d}");
+    }
+    eprintln!(
+        "{} specs ({RANDOM_SPECS} random), {} cases: Rust = C = interpreter",
+        plans.len(),
+        expect.lines().count()
+    );
+}
