@@ -192,6 +192,20 @@ pub fn comparisons_in(stmts: &[Stmt]) -> usize {
 }
 
 impl Expr {
+    /// Where the expression starts in the spec (its first operand's site).
+    pub fn span(&self) -> Span {
+        match self {
+            Expr::Const { span, .. } | Expr::Var(_, span) => *span,
+            Expr::Mul(a, ..) => a.span(),
+            Expr::Neg(a)
+            | Expr::Add(a, _)
+            | Expr::Sub(a, _)
+            | Expr::Min(a, _)
+            | Expr::Max(a, _) => a.span(),
+            Expr::Select(c, ..) => c.span(),
+        }
+    }
+
     /// How many comparisons the expression holds (see [`comparisons_in`]).
     pub fn comparisons(&self) -> usize {
         match self {
@@ -208,6 +222,14 @@ impl Expr {
 }
 
 impl Cond {
+    /// Where the condition starts in the spec.
+    pub fn span(&self) -> Span {
+        match self {
+            Cond::Cmp(_, a, _) => a.span(),
+            Cond::And(a, _) | Cond::Or(a, _) | Cond::Not(a) => a.span(),
+        }
+    }
+
     /// How many comparisons the condition holds (see [`comparisons_in`]).
     pub fn comparisons(&self) -> usize {
         match self {

@@ -2,7 +2,7 @@
 //! how each multiplication was lowered.
 
 use crate::emit::kind_name;
-use crate::ir::SigKind;
+use crate::ir::{SigId, SigKind};
 use crate::lower::lir::{LStmt, Op};
 use crate::lower::target::{MulKind, Target};
 use crate::lower::Plan;
@@ -94,7 +94,7 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
             [
                 s.name.clone(),
                 kind_name(s.kind).to_string(),
-                range_text(sm.range.0, sm.range.1),
+                signal_range_text(plan, crate::ir::SigId(i)),
                 s.unit.clone().unwrap_or_default(),
                 sm.format.to_string(),
                 format!("{:.3e}", sm.format.lsb()),
@@ -397,9 +397,27 @@ fn g_unit(v: f64) -> f64 {
     }
 }
 
-/// A range `[lo, hi]` as printed in reports and generated docs: ends rounded outward.
+/// A range `[lo, hi]` the analysis derived, as printed in reports and generated docs: ends
+/// rounded outward.
 pub fn range_text(lo: f64, hi: f64) -> String {
     format!("[{}, {}]", g_down(lo), g_up(hi))
+}
+
+/// The range of signal `id` as printed: a declared range as the spec wrote it (the shortest
+/// decimal that reads back as the same f64), a derived one rounded outward.
+pub fn signal_range_text(plan: &Plan, id: SigId) -> String {
+    let (lo, hi) = plan.summary[id.0].range;
+    if plan.prog.sig(id).range.is_some() {
+        format!("[{}, {}]", literal(lo), literal(hi))
+    } else {
+        range_text(lo, hi)
+    }
+}
+
+/// The shortest decimal that reads back as `v` (`0.27`, `5`, `1e-21`).
+fn literal(v: f64) -> String {
+    let s = format!("{v:?}");
+    s.strip_suffix(".0").map_or(s.clone(), str::to_string)
 }
 
 /// An error bound (non-negative) to four significant digits, rounded up: what qloop prints as

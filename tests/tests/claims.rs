@@ -132,3 +132,35 @@ fn a_pinned_let_keeps_its_type() {
     assert_eq!(plan.summary[a].format.to_string(), "Q(i16, 6)");
     assert!(qloop::gen_rust(&plan).contains("let a: i16"));
 }
+
+/// A chain of constant factors keeps the precision the words allow: before the fix, the
+/// product `0.333333 · s` was rounded by 40 bits at once before `· 1e-6`, which then became
+/// 2^-20 (4.6 % off), and y's bound was 1.5e-5 on a range of ±3.3e-4 (65,000 LSBs).
+#[test]
+fn a_chain_of_constant_factors_keeps_its_precision() {
+    let plan = corpus_plan("tiny_factor_chain");
+    for name in ["y", "v"] {
+        let i = plan
+            .prog
+            .signals
+            .iter()
+            .position(|s| s.name == name)
+            .expect("output");
+        let s = &plan.summary[i];
+        assert!(
+            s.err <= 2.0 * s.format.lsb(),
+            "{name}: bound {:e} is more than 2 LSBs ({:e}) of {}",
+            s.err,
+            s.format.lsb(),
+            s.format
+        );
+    }
+    // The constant itself: 1e-6 quantised within half an LSB of the other factor, not as 2^-20.
+    let m = plan
+        .mults
+        .iter()
+        .find(|m| m.constant == 1e-6)
+        .expect("a product by 1e-6");
+    let q = m.m as f64 * 2f64.powi(-m.k);
+    assert!((q - 1e-6).abs() < 1e-6 * 1e-4, "1e-6 quantised as {q:e}");
+}

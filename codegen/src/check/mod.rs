@@ -741,7 +741,7 @@ fn fold_value(e: Expr) -> Expr {
     };
     let (value, span) = match &e {
         Expr::Neg(a) => match c(a) {
-            Some(v) => (-v, span_of(a)),
+            Some(v) => (-v, a.span()),
             None => return e,
         },
         Expr::Add(a, b)
@@ -757,7 +757,7 @@ fn fold_value(e: Expr) -> Expr {
                     Expr::Min(..) => x.min(y),
                     _ => x.max(y),
                 },
-                span_of(a),
+                a.span(),
             ),
             _ => return e,
         },
@@ -767,16 +767,6 @@ fn fold_value(e: Expr) -> Expr {
         value,
         name: None,
         span,
-    }
-}
-
-fn span_of(e: &Expr) -> Span {
-    match e {
-        Expr::Const { span, .. } | Expr::Var(_, span) | Expr::Mul(_, _, span) => *span,
-        Expr::Neg(a) | Expr::Add(a, _) | Expr::Sub(a, _) | Expr::Min(a, _) | Expr::Max(a, _) => {
-            span_of(a)
-        }
-        Expr::Select(_, a, _) => span_of(a),
     }
 }
 

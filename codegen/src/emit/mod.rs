@@ -10,7 +10,7 @@ pub mod rust;
 
 use crate::ir::{SigId, SigKind};
 use crate::lower::Plan;
-use crate::report::{bound, range_text};
+use crate::report::{bound, signal_range_text};
 use proc_macro2::TokenStream;
 
 /// Formats emitted tokens as Rust source (rustfmt-like, via prettyplease).
@@ -45,7 +45,7 @@ pub fn module_doc(plan: &Plan, what: &str) -> String {
             "| `{}` | {} | {} {} | {} | {:.3e} | {} |\n",
             s.name,
             kind_name(s.kind),
-            range_text(sm.range.0, sm.range.1),
+            signal_range_text(plan, crate::ir::SigId(i)),
             s.unit.as_deref().unwrap_or(""),
             sm.format,
             sm.format.lsb(),
@@ -77,7 +77,7 @@ pub fn sig_doc(plan: &Plan, id: SigId) -> String {
     }
     d.push_str(&format!(
         "Range {} {}, format {}.",
-        range_text(sm.range.0, sm.range.1),
+        signal_range_text(plan, id),
         s.unit.as_deref().unwrap_or(""),
         sm.format
     ));

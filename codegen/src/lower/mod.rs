@@ -296,6 +296,9 @@ struct Lowerer<'a> {
     line: usize,
     /// Comparisons lowered so far (the next one's [`Val::decision`]).
     decisions: usize,
+    /// The spec site of what is being lowered (a statement, a condition, an input's
+    /// declaration): where an error without a site of its own points.
+    here: Span,
 }
 
 struct Lowered {
@@ -385,6 +388,7 @@ impl<'a> Lowerer<'a> {
             mults: Vec::new(),
             line: 0,
             decisions: 0,
+            here: Span::call_site(),
         }
     }
 
@@ -406,6 +410,7 @@ impl<'a> Lowerer<'a> {
         }
         // Inputs: read raw bits, clamp to the declared range.
         for id in self.prog.ids_of(SigKind::Input).collect::<Vec<_>>() {
+            self.here = self.prog.sig(id).span;
             let q = self.fmt(id);
             let raw = self.push(
                 Op::Input(id),
@@ -710,7 +715,7 @@ impl<'a> Lowerer<'a> {
         let x = self.v(v).clone();
         let tl = if x.lo < lo { x.lo.min(lo) } else { x.lo };
         let th = if x.hi > hi { x.hi.max(hi) } else { x.hi };
-        let ty = self.working(tl, th, Span::call_site())?;
+        let ty = self.working(tl, th, self.here)?;
         if x.lo < lo {
             cur = self.cast(cur, ty, out);
             let c = self.push(Op::Const(lo), ty, x.frac, lo, lo, 0.0, out);
@@ -755,6 +760,7 @@ impl<'a> Lowerer<'a> {
                 span,
             } => {
                 self.line = span.start().line;
+                self.here = *span;
                 let sig = self.prog.sig(*target).clone();
                 if sig.kind == SigKind::Local {
                     let mut v = match (value, sig.claim) {
@@ -822,6 +828,8 @@ impl<'a> Lowerer<'a> {
                 self.store(*target, v, *span, out)
             }
             Stmt::If { cond, then, els } => {
+                self.here = cond.span();
+                self.line = self.here.start().line;
                 let c = self.cond(cond, out)?;
                 let before = self.env.clone();
                 let mut t = Vec::new();
@@ -943,7 +951,7 @@ impl<'a> Lowerer<'a> {
                 let x = self.v(a).clone();
                 // The type holds the operand as well as the result: [0, 2^31] negates into
                 // i32, but is cast there first.
-                let ty = self.working(x.lo.min(-x.hi), x.hi.max(-x.lo), Span::call_site())?;
+                let ty = self.working(x.lo.min(-x.hi), x.hi.max(-x.lo), self.here)?;
                 let c = self.cast(a, ty, out);
                 Ok(self.push(Op::Neg(c), ty, x.frac, -x.hi, -x.lo, x.err, out))
             }
@@ -965,7 +973,7 @@ impl<'a> Lowerer<'a> {
             Expr::Select(c, a, b) => {
                 let c = self.cond(c, out)?;
                 let (a, b) = self.pair(a, b, ctx, out)?;
-                let (a, b, f, ty) = self.align(a, b, Bin::Hull, Span::call_site(), out)?;
+                let (a, b, f, ty) = self.align(a, b, Bin::Hull, self.here, out)?;
                 let (x, y) = (self.v(a).clone(), self.v(b).clone());
                 let err = x.err.max(y.err);
                 let v = self.push(
@@ -1151,15 +1159,15 @@ impl<'a> Lowerer<'a> {
         let (mut a, mut b) = self.pair(a, b, frac, out)?;
         let (fa, fb) = (self.v(a).frac, self.v(b).frac);
         if fb <= frac && fa > frac {
-            a = self.round(a, (fa - frac) as u32, Span::call_site(), out)?;
+            a = self.round(a, (fa - frac) as u32, self.here, out)?;
         } else if matches!(op, Bin::Add) && fa <= frac && fb > frac {
-            b = self.round(b, (fb - frac) as u32, Span::call_site(), out)?;
+            b = self.round(b, (fb - frac) as u32, self.here, out)?;
         }
         self.binary_vals(a, b, op, out)
     }
 
     fn binary_vals(&mut self, a: ValId, b: ValId, op: Bin, out: &mut Vec<LStmt>) -> Result<ValId> {
-        let (a, b, f, ty) = self.align(a, b, op, Span::call_site(), out)?;
+        let (a, b, f, ty) = self.align(a, b, op, self.here, out)?;
         let (x, y) = (self.v(a).clone(), self.v(b).clone());
         let (lo, hi) = op.range((x.lo, x.hi), (y.lo, y.hi));
         let (o, err) = match op {
@@ -1450,7 +1458,7 @@ impl<'a> Lowerer<'a> {
             }
             Cond::Cmp(op, a, b) => {
                 let (a, b) = self.pair(a, b, 0, out)?;
-                let (a, b, _, _) = self.align(a, b, Bin::Hull, Span::call_site(), out)?;
+                let (a, b, _, _) = self.align(a, b, Bin::Hull, self.here, out)?;
                 let band = self.v(a).err + self.v(b).err;
                 (Op::Cmp(*op, a, b), band)
             }
@@ -1485,7 +1493,7 @@ impl<'a> Lowerer<'a> {
             CmpOp::Eq | CmpOp::Ne => xv.hi + 1,
         };
         let t = t.clamp(xv.lo - 1, xv.hi + 1);
-        let ty = self.working(xv.lo.min(t), xv.hi.max(t), Span::call_site())?;
+        let ty = self.working(xv.lo.min(t), xv.hi.max(t), self.here)?;
         let a = self.cast(v, ty, out);
         let k = self.push(Op::Const(t), ty, xv.frac, t, t, 0.0, out);
         Ok(self.boolean(Op::Cmp(op, a, k), xv.err, out))

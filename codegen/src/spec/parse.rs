@@ -291,5 +291,16 @@ pub fn parse_str(src: &str) -> Result<SpecAst> {
         Diag::new(e.span(), format!("cannot lex the spec: {e}"))
             .help("a spec uses Rust tokens: check for unbalanced brackets or unterminated strings")
     })?;
-    parse_tokens(tokens)
+    // An error at the end of the input (`expected `}``, an empty file) carries no site of
+    // its own: point at the end of the text.
+    parse_tokens(tokens).map_err(|d| {
+        if d.line_col().0 == 0 {
+            Diag {
+                span: super::scan::span_at(src, src.trim_end().len()),
+                ..d
+            }
+        } else {
+            d
+        }
+    })
 }

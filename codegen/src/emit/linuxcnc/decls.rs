@@ -5,7 +5,7 @@ use super::{conversion_text, doc_prefix, double_c, names, pow2_text, unit, Layou
 use crate::ir::SigId;
 use crate::lower::Plan;
 use crate::qformat::Rounding;
-use crate::report::{g, range_text};
+use crate::report::{g, signal_range_text};
 use std::fmt::Write;
 
 /// Everything before the `;;` line.
@@ -65,12 +65,11 @@ pub(super) fn declarations(plan: &Plan, l: &Layout) -> String {
         .iter()
         .map(|i| {
             let s = p.sig(i.id);
-            let r = plan.summary[i.id.0].range;
             format!(
                 "\\\\fB{}\\\\fR (the spec's input {}, {}{}, {}): raw = {} in [{}, {}].",
                 names::dashed(&i.hal),
                 s.name,
-                range_text(r.0, r.1),
+                signal_range_text(plan, i.id),
                 unit(&s.unit),
                 i.q,
                 conversion_text(plan, i),
@@ -146,10 +145,7 @@ pub(super) fn declarations(plan: &Plan, l: &Layout) -> String {
     );
 
     // Pins and params.
-    let range = |id: SigId| {
-        let r = plan.summary[id.0].range;
-        format!("{}{}", range_text(r.0, r.1), unit(&p.sig(id).unit))
-    };
+    let range = |id: SigId| format!("{}{}", signal_range_text(plan, id), unit(&p.sig(id).unit));
     for i in &l.inputs {
         let s = p.sig(i.id);
         let _ = writeln!(
