@@ -631,9 +631,13 @@ impl<'a> Lowerer<'a> {
             Rounding::Nearest => pow2(n as i32 - 1) * lsb_src,
         };
         if lo == hi {
-            let err = if x.lo == x.hi {
-                // A constant rounded at compile time: its exact rounding error.
-                (x.lo as f64 * lsb_src - lo as f64 * pow2(-frac)).abs()
+            let err = if x.lo == x.hi && n <= 126 {
+                // A constant rounded at compile time: its exact rounding error, from the
+                // integers (the difference of the two values in f64 would cancel).
+                up_f64((x.lo - (lo << n)).unsigned_abs()) * lsb_src
+            } else if x.lo == x.hi {
+                // Rounded by more bits than an i128 shifts: at most one LSB of the result.
+                pow2(-frac)
             } else {
                 added
             };
@@ -1549,6 +1553,17 @@ fn floor_ceil_scaled(c: f64, f: i32) -> (i128, i128) {
     let fl = m >> r;
     let exact = r < 127 && (fl << r) == m;
     (fl, if exact { fl } else { fl + 1 })
+}
+
+/// `v` as an f64, rounded up where it has more than 53 significant bits (an error bound must
+/// not shrink in the conversion).
+fn up_f64(v: u128) -> f64 {
+    let f = v as f64;
+    if (f as u128) < v {
+        f.next_up()
+    } else {
+        f
+    }
 }
 
 /// `v · 2^k` if it fits comfortably in an `i128` (the analysis only needs up to 2^66).
