@@ -204,3 +204,52 @@ fn vacuous_property_is_not_called_proved() {
     );
     assert!(out.contains("1 unknown"), "{out}");
 }
+
+/// A spec beyond the length limit (issue 12: `qloop prove` on a 3,000-term sum printed
+/// nothing within 120 s) is refused by `prove` with a located error, at once.
+#[test]
+fn prove_refuses_a_spec_beyond_the_length_limit() {
+    let dir = std::env::temp_dir().join(format!("qloop-cli-long-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("long.qloop");
+    let sum = vec!["x"; 3000].join(" + ");
+    std::fs::write(
+        &path,
+        format!(
+            "controller long {{\n    period 0.01 \"s\";\n    input x: [-1.0, 1.0];\n    \
+             output y;\n    step {{ y = {sum}; }}\n}}\n"
+        ),
+    )
+    .unwrap();
+    let o = qloop(&["prove", path.to_str().unwrap(), "--no-cache"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+    let err = text(&o.stderr);
+    assert!(err.contains("too long") && err.contains("long.qloop:5:"), "{err}");
+}
+
+/// `--timeout` bounds the whole proof: with one second, the prover stops, reports what it
+/// could not finish as unknown and exits 1; without a terminal it prints its progress as lines.
+#[test]
+fn prove_honours_its_total_timeout_and_reports_progress() {
+    if Command::new("z3").arg("--version").output().is_err() {
+        eprintln!("skipping: z3 is not installed");
+        return;
+    }
+    let start = std::time::Instant::now();
+    let o = qloop(&[
+        "prove",
+        &spec("koren_masory_1981.qloop"),
+        "--no-cache",
+        "--timeout",
+        "1",
+        "--jobs",
+        "1",
+    ]);
+    let secs = start.elapsed().as_secs_f64();
+    let out = text(&o.stdout);
+    assert_eq!(o.status.code(), Some(1), "{out}");
+    assert!(out.contains("time limit (--timeout)"), "{out}");
+    assert!(secs < 30.0, "took {secs} s");
+    let err = text(&o.stderr);
+    assert!(err.contains("qloop prove: ") && err.contains("solver runs done"), "{err}");
+}
