@@ -947,51 +947,66 @@ impl<'a> Lowerer<'a> {
 
     /// Lowers `e`; a bare constant takes `ctx` fraction bits (or more, if that makes it exact).
     fn expr(&mut self, e: &Expr, ctx: i32, out: &mut Vec<LStmt>) -> Result<ValId> {
+        // A thin dispatcher: this recursion repeats once per operator, so each form has its own
+        // function and the frame repeated per level stays small (see `spec::scan`).
         match e {
             Expr::Const { value, span, .. } => self.constant(*value, ctx, *span, out),
             Expr::Var(id, span) => self.var(*id, *span, out),
-            Expr::Neg(a) => {
-                let a = self.expr(a, ctx, out)?;
-                let x = self.v(a).clone();
-                // The type holds the operand as well as the result: [0, 2^31] negates into
-                // i32, but is cast there first.
-                let ty = self.working(x.lo.min(-x.hi), x.hi.max(-x.lo), self.here)?;
-                let c = self.cast(a, ty, out);
-                Ok(self.push(Op::Neg(c), ty, x.frac, -x.hi, -x.lo, x.err, out))
-            }
+            Expr::Neg(a) => self.neg(a, ctx, out),
             Expr::Add(a, b) => self.binary(a, b, ctx, Bin::Add, out),
             Expr::Sub(a, b) => self.binary(a, b, ctx, Bin::Sub, out),
             Expr::Min(a, b) => self.binary(a, b, ctx, Bin::Min, out),
             Expr::Max(a, b) => self.binary(a, b, ctx, Bin::Max, out),
-            Expr::Mul(a, b, span) => match (&**a, &**b) {
-                (Expr::Const { value, name, .. }, x) | (x, Expr::Const { value, name, .. }) => {
-                    let xv = self.expr(x, ctx, out)?;
-                    self.mul_const(xv, *value, name.clone(), None, *span, out)
-                }
-                _ => {
-                    let av = self.expr(a, ctx, out)?;
-                    let bv = self.expr(b, ctx, out)?;
-                    self.mul(av, bv, *span, out)
-                }
-            },
-            Expr::Select(c, a, b) => {
-                let c = self.cond(c, out)?;
-                let (a, b) = self.pair(a, b, ctx, out)?;
-                let (a, b, f, ty) = self.align(a, b, Bin::Hull, self.here, out)?;
-                let (x, y) = (self.v(a).clone(), self.v(b).clone());
-                let err = x.err.max(y.err);
-                let v = self.push(
-                    Op::Select(c, a, b),
-                    ty,
-                    f,
-                    x.lo.min(y.lo),
-                    x.hi.max(y.hi),
-                    err,
-                    out,
-                );
-                Ok(v)
+            Expr::Mul(a, b, span) => self.product(a, b, *span, ctx, out),
+            Expr::Select(c, a, b) => self.select(c, a, b, ctx, out),
+        }
+    }
+
+    fn neg(&mut self, a: &Expr, ctx: i32, out: &mut Vec<LStmt>) -> Result<ValId> {
+        let a = self.expr(a, ctx, out)?;
+        let x = self.v(a).clone();
+        // The type holds the operand as well as the result: [0, 2^31] negates into i32, but
+        // is cast there first.
+        let ty = self.working(x.lo.min(-x.hi), x.hi.max(-x.lo), self.here)?;
+        let c = self.cast(a, ty, out);
+        Ok(self.push(Op::Neg(c), ty, x.frac, -x.hi, -x.lo, x.err, out))
+    }
+
+    fn product(
+        &mut self,
+        a: &Expr,
+        b: &Expr,
+        span: Span,
+        ctx: i32,
+        out: &mut Vec<LStmt>,
+    ) -> Result<ValId> {
+        match (a, b) {
+            (Expr::Const { value, name, .. }, x) | (x, Expr::Const { value, name, .. }) => {
+                let xv = self.expr(x, ctx, out)?;
+                self.mul_const(xv, *value, name.clone(), None, span, out)
+            }
+            _ => {
+                let av = self.expr(a, ctx, out)?;
+                let bv = self.expr(b, ctx, out)?;
+                self.mul(av, bv, span, out)
             }
         }
+    }
+
+    fn select(
+        &mut self,
+        c: &Cond,
+        a: &Expr,
+        b: &Expr,
+        ctx: i32,
+        out: &mut Vec<LStmt>,
+    ) -> Result<ValId> {
+        let c = self.cond(c, out)?;
+        let (a, b) = self.pair(a, b, ctx, out)?;
+        let (a, b, f, ty) = self.align(a, b, Bin::Hull, self.here, out)?;
+        let (x, y) = (self.v(a), self.v(b));
+        let (lo, hi, err) = (x.lo.min(y.lo), x.hi.max(y.hi), x.err.max(y.err));
+        Ok(self.push(Op::Select(c, a, b), ty, f, lo, hi, err, out))
     }
 
     fn var(&mut self, id: SigId, span: Span, out: &mut Vec<LStmt>) -> Result<ValId> {
