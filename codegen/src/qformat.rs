@@ -133,6 +133,19 @@ impl fmt::Display for QFormat {
     }
 }
 
+/// A finite `v` as `(m, e)` with `v = m · 2^e` exactly (`m` the signed 53-bit significand).
+pub fn significand_exponent(v: f64) -> (i128, i32) {
+    let bits = v.to_bits();
+    let be = ((bits >> 52) & 0x7ff) as i32;
+    let frac = (bits & ((1u64 << 52) - 1)) as i128;
+    let (m, e) = if be == 0 {
+        (frac, -1074)
+    } else {
+        (frac | (1 << 52), be - 1075)
+    };
+    (if v < 0.0 { -m } else { m }, e)
+}
+
 /// 2^e as an `f64`, exact for |e| < 1000.
 pub fn pow2(e: i32) -> f64 {
     2f64.powi(e)

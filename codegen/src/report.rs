@@ -354,16 +354,8 @@ fn decimal_cmp(s: &str, v: f64) -> Option<Ordering> {
         d = -d;
     }
     let k = exp - frac.len() as i32; // s = d · 10^k
-                                     // v = m · 2^e exactly.
-    let bits = v.to_bits();
-    let be = ((bits >> 52) & 0x7ff) as i32;
-    let mant_bits = (bits & ((1u64 << 52) - 1)) as i64;
-    let (m, e) = if be == 0 {
-        (mant_bits, -1074)
-    } else {
-        (mant_bits | (1 << 52), be - 1075)
-    };
-    let m = BigInt::from(if v < 0.0 { -m } else { m });
+    let (m, e) = crate::qformat::significand_exponent(v);
+    let m = BigInt::from(m);
     let pow = |b: u32, n: i32| BigInt::from(b).pow(n.max(0) as u32);
     // d·10^k ? m·2^e  ⟺  d·10^k⁺·2^e⁻ ? m·2^e⁺·10^k⁻
     let lhs = d * pow(10, k) * pow(2, -e);

@@ -224,7 +224,10 @@ fn prove_refuses_a_spec_beyond_the_length_limit() {
     let o = qloop(&["prove", path.to_str().unwrap(), "--no-cache"]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
     let err = text(&o.stderr);
-    assert!(err.contains("too long") && err.contains("long.qloop:5:"), "{err}");
+    assert!(
+        err.contains("too long") && err.contains("long.qloop:5:"),
+        "{err}"
+    );
 }
 
 /// `--timeout` bounds the whole proof: with one second, the prover stops, reports what it
@@ -251,5 +254,8 @@ fn prove_honours_its_total_timeout_and_reports_progress() {
     assert!(out.contains("time limit (--timeout)"), "{out}");
     assert!(secs < 30.0, "took {secs} s");
     let err = text(&o.stderr);
-    assert!(err.contains("qloop prove: ") && err.contains("solver runs done"), "{err}");
+    assert!(
+        err.contains("qloop prove: ") && err.contains("solver runs done"),
+        "{err}"
+    );
 }

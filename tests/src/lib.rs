@@ -16,8 +16,13 @@ pub fn specs_dir() -> PathBuf {
 
 /// Every seed spec, as (file stem, source text), sorted by name.
 pub fn all_specs() -> Vec<(String, String)> {
-    let mut v: Vec<_> = std::fs::read_dir(specs_dir())
-        .expect("verified/specs")
+    qloop_files(&specs_dir())
+}
+
+/// Every `*.qloop` file of `dir`, as (file stem, source text), sorted by name.
+fn qloop_files(dir: &std::path::Path) -> Vec<(String, String)> {
+    let mut v: Vec<_> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
         .filter_map(|e| e.ok())
         .map(|e| e.path())
         .filter(|p| p.extension().is_some_and(|x| x == "qloop"))
@@ -32,19 +37,7 @@ pub fn all_specs() -> Vec<(String, String)> {
 
 /// The claim corpus (`tests/fixtures/claims`), as (file stem, source text), sorted by name.
 pub fn claim_corpus() -> Vec<(String, String)> {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fixtures/claims");
-    let mut v: Vec<_> = std::fs::read_dir(dir)
-        .expect("tests/fixtures/claims")
-        .filter_map(|e| e.ok())
-        .map(|e| e.path())
-        .filter(|p| p.extension().is_some_and(|x| x == "qloop"))
-        .map(|p| {
-            let stem = p.file_stem().unwrap().to_string_lossy().into_owned();
-            (stem, std::fs::read_to_string(&p).unwrap())
-        })
-        .collect();
-    v.sort();
-    v
+    qloop_files(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fixtures/claims"))
 }
 
 /// What the first line of a corpus spec expects: `None` for `// expect: compiles`, else the

@@ -84,6 +84,20 @@ pub fn sig_doc(plan: &Plan, id: SigId) -> String {
     d
 }
 
+/// `let _ = s;` / `let _ = i;` for `set_states(s)` and `step_bits(i)` / `step_values(i)` of a
+/// controller without states / inputs: one signature for every controller, no warning.
+pub fn unused_params(no_states: bool, no_inputs: bool) -> (TokenStream, TokenStream) {
+    let ignore = |none: bool, name: &str| {
+        let id = quote::format_ident!("{name}");
+        if none {
+            quote::quote! { let _ = #id; }
+        } else {
+            TokenStream::new()
+        }
+    };
+    (ignore(no_states, "s"), ignore(no_inputs, "i"))
+}
+
 /// `input`, `state`, ...
 pub fn kind_name(k: SigKind) -> &'static str {
     match k {

@@ -88,16 +88,7 @@ pub fn module(plan: &Plan) -> TokenStream {
         quote! { self.#n, }
     });
     // Controllers without states or inputs keep the same signatures.
-    let no_states = if states.is_empty() {
-        quote! { let _ = s; }
-    } else {
-        quote! {}
-    };
-    let no_inputs = if inputs.is_empty() {
-        quote! { let _ = i; }
-    } else {
-        quote! {}
-    };
+    let (no_states, no_inputs) = super::unused_params(states.is_empty(), inputs.is_empty());
     quote! {
         #[doc = #doc]
         // The reference reads the spec as written: an input or `let` the step never uses is
@@ -233,11 +224,16 @@ impl Exprs<'_> {
     /// The expression's tokens and their nesting depth.
     fn expr(&mut self, e: &Expr) -> (TokenStream, usize) {
         let (t, d) = self.expr_inline(e);
+        self.hoist(t, d, quote! { f64 })
+    }
+
+    /// `t` as it is, or, nested deeper than [`MAX_INLINE`], a `let` of type `ty` in `pre`.
+    fn hoist(&mut self, t: TokenStream, d: usize, ty: TokenStream) -> (TokenStream, usize) {
         if d <= MAX_INLINE {
             return (t, d);
         }
         let tmp = format_ident!("_r{}", self.pre.len());
-        self.pre.push(quote! { let #tmp: f64 = #t; });
+        self.pre.push(quote! { let #tmp: #ty = #t; });
         (quote! { #tmp }, 1)
     }
 
@@ -294,12 +290,7 @@ impl Exprs<'_> {
     /// The condition's tokens and their nesting depth; hoisted like [`Self::expr`].
     fn cond(&mut self, c: &Cond) -> (TokenStream, usize) {
         let (t, d) = self.cond_inline(c);
-        if d <= MAX_INLINE {
-            return (t, d);
-        }
-        let tmp = format_ident!("_r{}", self.pre.len());
-        self.pre.push(quote! { let #tmp: bool = #t; });
-        (quote! { #tmp }, 1)
+        self.hoist(t, d, quote! { bool })
     }
 
     fn cond_inline(&mut self, c: &Cond) -> (TokenStream, usize) {

@@ -116,16 +116,7 @@ pub fn module(plan: &Plan) -> TokenStream {
         quote! {}
     };
     // Controllers without states or inputs keep the same signatures.
-    let no_states = if states.is_empty() {
-        quote! { let _ = s; }
-    } else {
-        quote! {}
-    };
-    let no_inputs = if inputs.is_empty() {
-        quote! { let _ = i; }
-    } else {
-        quote! {}
-    };
+    let (no_states, no_inputs) = super::unused_params(states.is_empty(), inputs.is_empty());
     quote! {
         #[doc = #doc]
         #[allow(#allows)]

@@ -7,24 +7,7 @@
 //! nothing the step computes. The pass renumbers the surviving values in their original order,
 //! so that every value of [`Plan::vals`](super::Plan::vals) is defined in the body and used.
 
-use super::lir::{LStmt, Op, Val, ValId};
-
-/// The operands of an operation.
-pub fn operands(op: &Op) -> Vec<ValId> {
-    match *op {
-        Op::Input(_) | Op::Load(_) | Op::Const(_) => vec![],
-        Op::Cast(a) | Op::Neg(a) | Op::Shl(a, _) | Op::Shr(a, _) | Op::Not(a) => vec![a],
-        Op::Add(a, b)
-        | Op::Sub(a, b)
-        | Op::Mul(a, b)
-        | Op::Min(a, b)
-        | Op::Max(a, b)
-        | Op::Cmp(_, a, b)
-        | Op::And(a, b)
-        | Op::Or(a, b) => vec![a, b],
-        Op::Select(c, a, b) => vec![c, a, b],
-    }
-}
+use super::lir::{LStmt, Val, ValId};
 
 /// Removes every value that no store or branch uses, directly or through other values, and
 /// every `if` left with two empty branches; renumbers what remains.
@@ -52,7 +35,7 @@ fn mark(vals: &[Val], body: &[LStmt], live: &mut [bool]) {
             }
             LStmt::Def(id) => {
                 if live[id.0] {
-                    for a in operands(&vals[id.0].op) {
+                    for a in vals[id.0].op.operands() {
                         live[a.0] = true;
                     }
                 }
@@ -93,25 +76,8 @@ fn renumber(vals: Vec<Val>, body: Vec<LStmt>, live: &[bool]) -> (Vec<Val>, Vec<L
             kept.push(v);
         }
     }
-    let m = |v: ValId| map[v.0];
     for v in &mut kept {
-        v.op = match v.op {
-            ref op @ (Op::Input(_) | Op::Load(_) | Op::Const(_)) => op.clone(),
-            Op::Cast(a) => Op::Cast(m(a)),
-            Op::Neg(a) => Op::Neg(m(a)),
-            Op::Not(a) => Op::Not(m(a)),
-            Op::Shl(a, k) => Op::Shl(m(a), k),
-            Op::Shr(a, k) => Op::Shr(m(a), k),
-            Op::Add(a, b) => Op::Add(m(a), m(b)),
-            Op::Sub(a, b) => Op::Sub(m(a), m(b)),
-            Op::Mul(a, b) => Op::Mul(m(a), m(b)),
-            Op::Min(a, b) => Op::Min(m(a), m(b)),
-            Op::Max(a, b) => Op::Max(m(a), m(b)),
-            Op::Cmp(op, a, b) => Op::Cmp(op, m(a), m(b)),
-            Op::And(a, b) => Op::And(m(a), m(b)),
-            Op::Or(a, b) => Op::Or(m(a), m(b)),
-            Op::Select(c, a, b) => Op::Select(m(c), m(a), m(b)),
-        };
+        v.op = v.op.map_operands(|a| map[a.0]);
     }
     (kept, rewrite(body, &map))
 }

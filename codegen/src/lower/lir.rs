@@ -87,6 +87,46 @@ pub enum Op {
     Not(ValId),
 }
 
+impl Op {
+    /// The values this operation reads.
+    pub fn operands(&self) -> Vec<ValId> {
+        match *self {
+            Op::Input(_) | Op::Load(_) | Op::Const(_) => vec![],
+            Op::Cast(a) | Op::Neg(a) | Op::Shl(a, _) | Op::Shr(a, _) | Op::Not(a) => vec![a],
+            Op::Add(a, b)
+            | Op::Sub(a, b)
+            | Op::Mul(a, b)
+            | Op::Min(a, b)
+            | Op::Max(a, b)
+            | Op::Cmp(_, a, b)
+            | Op::And(a, b)
+            | Op::Or(a, b) => vec![a, b],
+            Op::Select(c, a, b) => vec![c, a, b],
+        }
+    }
+
+    /// The same operation reading `f(v)` wherever it read `v`.
+    pub fn map_operands(&self, f: impl Fn(ValId) -> ValId) -> Op {
+        match *self {
+            ref op @ (Op::Input(_) | Op::Load(_) | Op::Const(_)) => op.clone(),
+            Op::Cast(a) => Op::Cast(f(a)),
+            Op::Neg(a) => Op::Neg(f(a)),
+            Op::Not(a) => Op::Not(f(a)),
+            Op::Shl(a, k) => Op::Shl(f(a), k),
+            Op::Shr(a, k) => Op::Shr(f(a), k),
+            Op::Add(a, b) => Op::Add(f(a), f(b)),
+            Op::Sub(a, b) => Op::Sub(f(a), f(b)),
+            Op::Mul(a, b) => Op::Mul(f(a), f(b)),
+            Op::Min(a, b) => Op::Min(f(a), f(b)),
+            Op::Max(a, b) => Op::Max(f(a), f(b)),
+            Op::Cmp(op, a, b) => Op::Cmp(op, f(a), f(b)),
+            Op::And(a, b) => Op::And(f(a), f(b)),
+            Op::Or(a, b) => Op::Or(f(a), f(b)),
+            Op::Select(c, a, b) => Op::Select(f(c), f(a), f(b)),
+        }
+    }
+}
+
 /// A statement of the plan.
 #[derive(Clone, Debug)]
 pub enum LStmt {

@@ -1549,16 +1549,7 @@ fn floor_ceil_scaled(c: f64, f: i32) -> (i128, i128) {
     if c == 0.0 {
         return (0, 0);
     }
-    // c = m · 2^e with m a 53-bit integer.
-    let bits = c.to_bits();
-    let exp = ((bits >> 52) & 0x7ff) as i32;
-    let frac_bits = (bits & ((1u64 << 52) - 1)) as i128;
-    let (m, e) = if exp == 0 {
-        (frac_bits, -1074)
-    } else {
-        (frac_bits | (1 << 52), exp - 1075)
-    };
-    let m = if c < 0.0 { -m } else { m };
+    let (m, e) = crate::qformat::significand_exponent(c);
     let s = e + f;
     if s >= 0 {
         let v = if s >= 47 { m.signum() * CAP } else { m << s };

@@ -463,7 +463,7 @@ fn cone(plan: &Plan) -> Cone {
                 LStmt::Def(id) => {
                     let v = plan.val(*id);
                     let mut d: BTreeSet<ValId> = BTreeSet::from([*id]);
-                    for o in operands(&v.op) {
+                    for o in v.op.operands() {
                         d.extend(val[o.0].iter().copied());
                     }
                     if let Op::Load(sig) = v.op {
@@ -686,7 +686,7 @@ fn local_val_query(plan: &Plan, id: ValId) -> Query {
             (format!("o{}", j.0), signed_bits(o.lo, o.hi))
         }
     };
-    for j in operands(&v.op) {
+    for j in v.op.operands() {
         let o = plan.val(j);
         let (name, w) = operand(j);
         if want.contains(&name) {
@@ -749,23 +749,6 @@ fn global_val_query(
     Query {
         script: script(&enc.text, &premises, &goal),
         want: want.to_vec(),
-    }
-}
-
-/// The value operands of an operation.
-pub fn operands(op: &Op) -> Vec<ValId> {
-    match op {
-        Op::Input(_) | Op::Load(_) | Op::Const(_) => vec![],
-        Op::Cast(a) | Op::Neg(a) | Op::Shl(a, _) | Op::Shr(a, _) | Op::Not(a) => vec![*a],
-        Op::Add(a, b)
-        | Op::Sub(a, b)
-        | Op::Mul(a, b)
-        | Op::Min(a, b)
-        | Op::Max(a, b)
-        | Op::Cmp(_, a, b)
-        | Op::And(a, b)
-        | Op::Or(a, b) => vec![*a, *b],
-        Op::Select(c, a, b) => vec![*c, *a, *b],
     }
 }
 
