@@ -321,6 +321,7 @@ pub fn legitimate_refusal(message: &str) -> bool {
         "too wide",
         "narrower than one step",
         "vanishes in this product",
+        "vanishes here",
         "overflows",
         "does not fit",
         "could not find a format",

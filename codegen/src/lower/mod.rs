@@ -1053,6 +1053,22 @@ impl<'a> Lowerer<'a> {
             .unwrap_or(ctx)
             .min(cap);
         let raw = (c * pow2(frac)).round() as i128;
+        if raw == 0 && c != 0.0 {
+            return Err(Diag::new(
+                span,
+                format!(
+                    "the constant {} vanishes here: at the resolution of the value it meets \
+                     (LSB {:.3e}) it rounds to 0",
+                    crate::report::g(c),
+                    pow2(-frac)
+                ),
+            )
+            .label("rounds to 0")
+            .help(
+                "remove it if it is negligible; otherwise give the other operand a finer format \
+                 (`#[lsb(..)]` or `#[q(..)]`), or change units so that the constant is larger",
+            ));
+        }
         let ty = self.working(raw, raw, span)?;
         let err = (c - raw as f64 * pow2(-frac)).abs();
         Ok(self.push(Op::Const(raw), ty, frac, raw, raw, err, out))
