@@ -1,7 +1,8 @@
 //! The C99 output (`qloop gen --lang c`) of every seed spec:
 //! * compiles without a warning (`-std=c99 -pedantic -Wall -Wextra -Werror`, and
-//!   `-Wconversion` on the host) with the host gcc, avr-gcc (atmega328p),
-//!   arm-none-eabi-gcc (Cortex-M0 and M4) and riscv64-unknown-elf-gcc (RV32I and RV32IMC);
+//!   `-Wconversion` on the host) for every built-in target, with the compiler and flags of
+//!   its `targets/*.toml`: the host cc, avr-gcc (atmega328p), arm-none-eabi-gcc (Cortex-M0,
+//!   its slow-multiplier variant, M4) and riscv64-unknown-elf-gcc (RV32I and RV32IMC);
 //! * computes bit for bit what the Rust output computes: the C generated for each target,
 //!   built by the host gcc with UBSan (any signed overflow, bad shift or bad conversion
 //!   aborts), against the `controller!` modules of `qloop-verified` over long random
@@ -21,31 +22,22 @@ use std::fmt::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-/// The targets whose C is checked, with the C compiler that builds it for real.
-const TARGETS: [(&str, &str, &[&str]); 6] = [
-    ("host", "gcc", &["-O2", "-Wconversion"]),
-    ("atmega328p", "avr-gcc", &["-mmcu=atmega328p", "-Os"]),
-    (
-        "cortex-m0",
-        "arm-none-eabi-gcc",
-        &["-mcpu=cortex-m0", "-mthumb", "-Os"],
-    ),
-    (
-        "cortex-m4",
-        "arm-none-eabi-gcc",
-        &["-mcpu=cortex-m4", "-mthumb", "-Os"],
-    ),
-    (
-        "rv32i",
-        "riscv64-unknown-elf-gcc",
-        &["-march=rv32i", "-mabi=ilp32", "-Os", "-ffreestanding"],
-    ),
-    (
-        "rv32imc",
-        "riscv64-unknown-elf-gcc",
-        &["-march=rv32imc", "-mabi=ilp32", "-Os", "-ffreestanding"],
-    ),
-];
+/// Every built-in target with a C compiler (`targets/*.toml`: its compiler and flags, the same
+/// the object-code checks and `qloop bench` use), as (name, compiler, flags). The host's C
+/// is also built with `-Wconversion`.
+fn targets() -> Vec<(String, String, Vec<String>)> {
+    qloop::Target::builtin()
+        .into_iter()
+        .filter_map(|t| {
+            let cc = t.toolchain.cc.clone()?;
+            let mut flags = t.toolchain.cflags.clone();
+            if t.name == "host" {
+                flags.push("-Wconversion".into());
+            }
+            Some((t.name, cc, flags))
+        })
+        .collect()
+}
 
 const WARN: [&str; 6] = ["-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-c"];
 
@@ -61,15 +53,15 @@ fn write_c(plan: &Plan, dir: &Path) -> PathBuf {
 
 #[test]
 fn c_compiles_without_warnings_for_every_target() {
-    for (target, cc, flags) in TARGETS {
-        let Some(cc) = tool(cc) else { continue };
+    for (target, cc, flags) in targets() {
+        let Some(cc) = tool(&cc) else { continue };
         for stem in spec_stems() {
-            let plan = plan_for(&stem, target);
+            let plan = plan_for(&stem, &target);
             let dir = scratch(&format!("c-warn-{target}-{stem}"));
             let c = write_c(&plan, &dir);
             run(Command::new(&cc)
                 .args(WARN)
-                .args(flags)
+                .args(&flags)
                 .arg(&c)
                 .arg("-o")
                 .arg(dir.join("step.o")));
@@ -225,8 +217,8 @@ fn c_matches_the_rust_output_bit_for_bit() {
     for stem in spec_stems() {
         // Plans differ per target only in how they multiply; every target's C must compute
         // the same function as the Rust compiled for the default target.
-        for (target, ..) in TARGETS {
-            let plan = plan_for(&stem, target);
+        for (target, ..) in targets() {
+            let plan = plan_for(&stem, &target);
             let dir = scratch(&format!("c-diff-{target}-{stem}"));
             let mut rng = Rng(0x2545_f491_4f6c_dd1d ^ stem.len() as u64);
             let inputs: Vec<Vec<i64>> = (0..20_000)
@@ -263,8 +255,8 @@ fn c_matches_the_rust_output_bit_for_bit() {
 fn c_matches_the_interpreter_from_any_state() {
     let Some(gcc) = tool("gcc") else { return };
     for stem in spec_stems() {
-        for (target, ..) in TARGETS {
-            let plan = plan_for(&stem, target);
+        for (target, ..) in targets() {
+            let plan = plan_for(&stem, &target);
             let dir = scratch(&format!("c-interp-{target}-{stem}"));
             let (states, inputs) = (ids(&plan, SigKind::State), ids(&plan, SigKind::Input));
             let mut rng = Rng(0x9e37_79b9_7f4a_7c15);

@@ -140,16 +140,45 @@ fn every_seed_spec_is_a_component_with_the_pins_run_sh_expects() {
         ] {
             assert!(text.contains(p), "{stem}: no `{p}`");
         }
-        // Every push has its pop, in the same order.
+        // halcompile makes a macro of the bare name of every pin, param and variable, and of
+        // `data`: each of those, read from the declarations themselves (not from the list
+        // the emitter pushes), must be pushed away before the controller and popped after it.
         let pushes: Vec<&str> = text
             .lines()
-            .filter_map(|l| l.strip_prefix("#pragma push_macro"))
+            .filter_map(|l| l.strip_prefix("#pragma push_macro(\""))
+            .filter_map(|l| l.strip_suffix("\")"))
             .collect();
         let pops: Vec<&str> = text
             .lines()
-            .filter_map(|l| l.strip_prefix("#pragma pop_macro"))
+            .filter_map(|l| l.strip_prefix("#pragma pop_macro(\""))
+            .filter_map(|l| l.strip_suffix("\")"))
             .collect();
-        assert!(!pushes.is_empty() && pushes == pops, "{stem}");
+        let declared: Vec<&str> = text
+            .lines()
+            .filter_map(|l| {
+                let w: Vec<&str> = l.split_whitespace().collect();
+                match w.first().copied() {
+                    Some("pin") | Some("param") => w.get(3).copied(),
+                    Some("variable") => w.get(2).copied(),
+                    _ => None,
+                }
+            })
+            .map(|n| n.trim_end_matches(';'))
+            .chain(["data"])
+            .collect();
+        for name in &declared {
+            assert!(pushes.contains(name), "{stem}: `{name}` is not pushed away");
+            assert!(pops.contains(name), "{stem}: `{name}` is not popped back");
+        }
+        // The controller's own identifiers from the spec, too.
+        for sig in &plan.prog.signals {
+            let id = qloop::emit::c::ident(&sig.name);
+            assert!(
+                pushes.contains(&id.as_str()),
+                "{stem}: spec name `{id}` not pushed"
+            );
+        }
+        assert_eq!(pushes, pops, "{stem}: pops differ from pushes");
         let mut at = 0;
         for m in MARKERS {
             at += text[at..]

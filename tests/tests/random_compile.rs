@@ -3,7 +3,8 @@
 //!
 //! At least 200 random specs per run (`qloop_tests::random_spec`: constants from 1e-15 to
 //! 1e15, thresholds, off-grid bounds, unsigned pins, no-state specs), plus the seed specs and
-//! the claim corpus, are emitted into one Rust crate (a debug build with the default lints:
+//! the claim corpus, are emitted (the random ones planned for the default target and for the
+//! ATmega328P, whose C splits shifts into byte moves) into one Rust crate (a debug build with the default lints:
 //! `arithmetic_overflow` is an error, and overflow checks are on at run time) and one C file
 //! (`gcc -std=c99 -pedantic -Wall -Wextra -Werror`, with `-fsanitize=undefined` aborting on
 //! any undefined behaviour); the crate also holds each spec's f64 reference module. Both are run on the same cases (aimed at clamps, thresholds and
@@ -213,9 +214,11 @@ fn first_difference(plans: &[Plan], input: &str, got: &str, want: &str) -> Optio
     ))
 }
 
-/// Seed specs, the corpus specs that compile, and random specs until `RANDOM_SPECS` compile.
+/// Seed specs, the corpus specs that compile, and random specs until `RANDOM_SPECS` compile,
+/// each random spec planned for the default target and for the ATmega328P.
 fn plans(seed: u64) -> (Vec<Plan>, Vec<String>) {
     let t = Target::default();
+    let avr = Target::by_name("atmega328p").expect("built-in target");
     let mut plans = Vec::new();
     let mut srcs = Vec::new();
     for (_, src) in all_specs().into_iter().chain(
@@ -239,6 +242,17 @@ fn plans(seed: u64) -> (Vec<Plan>, Vec<String>) {
                     plans.push(p);
                     srcs.push(src);
                     n += 1;
+                    // The same spec planned for the ATmega328P: 16-bit working types, the
+                    // multiplier where its cost model says so, shifts split into byte moves.
+                    let avr_src = sp.named(&format!("r{}_avr", n - 1));
+                    match qloop::compile_str(&avr_src, &avr) {
+                        Ok(p) => {
+                            plans.push(p);
+                            srcs.push(avr_src);
+                        }
+                        Err(e) if legitimate_refusal(&e.message) => {}
+                        Err(e) => panic!("unexpected refusal `{}` of\n{avr_src}", e.message),
+                    }
                 }
                 Err(e) if legitimate_refusal(&e.message) => {}
                 Err(e) => panic!("unexpected refusal `{}` of\n{src}", e.message),
@@ -343,7 +357,8 @@ fn every_accepted_spec_compiles_and_runs_bit_exact_in_rust_and_c() {
         panic!("seed {seed}: Rust differs from the plan interpreter: {d}");
     }
     eprintln!(
-        "{} specs ({RANDOM_SPECS} random), {} cases: Rust = C = interpreter",
+        "{} plans ({RANDOM_SPECS} random specs, each also planned for atmega328p), {} cases: \
+         Rust = C = interpreter",
         plans.len(),
         expect.lines().count()
     );

@@ -296,6 +296,16 @@ impl Checker {
                     ),
                 ));
             }
+            // `step` clamps every input's raw bits to the declared range; qloop's arithmetic
+            // is signed and at most 64 bits wide, which holds no u64 beyond 2^63.
+            if kind == SigKind::Input && !p.ty.signed && p.ty.bits == 64 {
+                return Err(Diag::new(
+                    s.name.span(),
+                    format!("input `{name}` cannot be a u64: its raw bits could not be clamped"),
+                )
+                .label("u64 input")
+                .help("pin `i64` (the same range with one fraction bit fewer) or `u32`"));
+            }
         }
         let id = SigId(self.signals.len());
         self.signals.push(Signal {

@@ -475,32 +475,23 @@ fn byte_split(plan: &Plan, id: ValId, mid: &str) -> Option<(String, String)> {
         _ => return None,
     };
     let byte = t.word_bits;
-    if t.shifter.barrel || v.ty.bits <= byte || k % byte == 0 {
-        return None;
-    }
     let av = plan.val(a);
-    let (q, r) = (k / byte, k % byte);
-    let up = byte - r;
     // `a · 2^n` fits the type (a's interval is proved; the shifted value is exact).
     let fits = |n: u32| n + 1 < v.ty.bits && v.ty.holds(av.lo << n, av.hi << n);
+    let (q, r) = (k / byte, k % byte);
+    let up_room = fits(if left { byte * (q + 1) } else { byte - r });
+    let sp = t.split_shift(v.ty.bits, k, up_room)?;
     let tn = c_ty(v.ty);
     let an = name(plan, a);
     let times = |x: &str, n: u32| format!("({tn})({x} * {})", c_lit(1i128 << n, v.ty));
     let shr = |x: &str, n: u32| format!("({tn})({x} >> {n})");
-    if up < r && fits(if left { byte * (q + 1) } else { up }) {
-        return Some(if left {
-            (times(&an, byte * (q + 1)), shr(mid, up))
-        } else {
-            (times(&an, up), shr(mid, byte * (q + 1)))
-        });
-    }
-    if q == 0 || (left && !fits(byte * q)) {
-        return None;
-    }
-    Some(if left {
-        (times(&an, byte * q), times(mid, r))
-    } else {
-        (shr(&an, byte * q), shr(mid, r))
+    let moved = byte * sp.words;
+    Some(match (sp.up, left) {
+        (true, true) => (times(&an, moved), shr(mid, sp.bits)),
+        (true, false) => (times(&an, sp.bits), shr(mid, moved)),
+        (false, true) if !fits(moved) => return None,
+        (false, true) => (times(&an, moved), times(mid, sp.bits)),
+        (false, false) => (shr(&an, moved), shr(mid, sp.bits)),
     })
 }
 

@@ -88,9 +88,16 @@ pub fn module(plan: &Plan) -> TokenStream {
         let name = format_ident!("{}", prog.sig(*id).name);
         let q = plan.format(*id);
         let (ty, fty) = (int_ty(q.ty), fixed_ty(q));
+        // Saturated to the type: its limits as i64 (`u64::MAX as i64` would be -1; `check`
+        // refuses u64 inputs, so that never happens, but the clamp stays right for any type).
+        let hi = if q.ty.max() > i64::MAX as i128 {
+            quote! { i64::MAX }
+        } else {
+            quote! { #ty::MAX as i64 }
+        };
         quote! {
             #name: <#fty>::from_bits(::core::cmp::max(
-                ::core::cmp::min(i[#k], #ty::MAX as i64),
+                ::core::cmp::min(i[#k], #hi),
                 #ty::MIN as i64,
             ) as #ty),
         }

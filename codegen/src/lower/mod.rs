@@ -243,9 +243,12 @@ fn choose_format_unchecked(s: &Signal, word: u32, lo: f64, hi: f64) -> Result<QF
     let fit = |ty: IntTy| QFormat::best_for(ty, lo, hi);
     let q = match s.lsb {
         Some(lsb) => {
+            // Unsigned where the range allows, but never a u64 input (see `check`: its raw
+            // bits could not be clamped in signed 64-bit arithmetic).
+            let u64_ok = s.kind != SigKind::Input;
             let candidates = WIDTHS.iter().flat_map(|&b| {
                 let mut v = vec![IntTy::signed(b)];
-                if lo >= 0.0 {
+                if lo >= 0.0 && (b < 64 || u64_ok) {
                     v.push(IntTy::unsigned(b));
                 }
                 v
@@ -1306,7 +1309,17 @@ impl<'a> Lowerer<'a> {
             None => self.working(-(xm * maxc), xm * maxc, span)?,
         };
         let bits = ty.bits;
-        let sa_cost = self.target.shift_add_cost(&plan, bits);
+        // Whether a term `c·x` has room for the rounded-up split of a shift by `k` (the test
+        // the C emitter applies to the same term, `emit::c::byte_split`).
+        let up_room = |c: i128, k: u32| {
+            let n = self.target.word_bits * (k / self.target.word_bits + 1);
+            let (a, b) = (xv.lo * c, xv.hi * c);
+            n + 1 < ty.bits
+                && shl_exact(a.min(b), n as i32)
+                    .zip(shl_exact(a.max(b), n as i32))
+                    .is_some_and(|(lo, hi)| ty.holds(lo, hi))
+        };
+        let sa_cost = self.target.shift_add_cost(&plan, bits, &up_room);
         // Both factors as the compiler sees them: x sign-extended from its own type, m as
         // a constant of the narrowest C type (at least `int`) that holds it.
         let m_bits = (129 - m.unsigned_abs().leading_zeros()).max(self.target.min_work_bits());

@@ -15,7 +15,7 @@
 
 use serde::Deserialize;
 
-use super::shift_add::ShiftAddPlan;
+use super::shift_add::{Operand, ShiftAddPlan};
 
 /// A target's word sizes and operation costs (cycles).
 #[derive(Clone, Debug, PartialEq, Deserialize)]
@@ -285,7 +285,7 @@ impl Target {
     /// per instruction (a multi-word shift needs about three per word to funnel the bits
     /// across); without one, each bit position costs one instruction per word, except that
     /// whole words just move.
-    pub fn shift_cost(&self, bits: u32, k: u32) -> u32 {
+    pub fn shift_cost(&self, bits: u32, k: u32, up_room: bool) -> u32 {
         if k == 0 {
             return 0;
         }
@@ -296,10 +296,12 @@ impl Target {
             let steps = k / self.word_bits + k % self.word_bits;
             self.costs.call + (self.shifter.cycles * w + self.shifter.loop_cycles) * steps
         } else {
-            // The C emitter writes the whole-word part and the rest as two shifts
-            // (`emit::c`), so the words move and only `k mod word` bit positions loop.
-            let moves = if k >= self.word_bits { w } else { 0 };
-            let r = k % self.word_bits;
+            // The C emitter writes the shift as whole-word moves and a shift by the rest
+            // (`split_shift`, shared with `emit::c`), so only those bit positions loop.
+            let (moves, r) = match self.split_shift(bits, k, up_room) {
+                Some(sp) => (w, sp.bits),
+                None => (if k >= self.word_bits { w } else { 0 }, k % self.word_bits),
+            };
             let per_bit = self.shifter.cycles * w;
             let bits_cost = if r <= 1 || self.shifter.loop_cycles == 0 {
                 per_bit * r
@@ -308,6 +310,36 @@ impl Target {
             };
             bits_cost + moves
         }
+    }
+
+    /// How the C emitter writes a constant shift by `k` of a `bits`-wide value on a core
+    /// without a barrel shifter, where the compiler would loop bit by bit over every word
+    /// (`None`: as one plain shift, on barrel shifters, single-word values, whole-word
+    /// shifts, and shifts under one word with no room to round up). With `k = w·q + r`: move
+    /// `q` whole words, then shift `r` bits; or, if `w − r < r`, the value has room for one
+    /// more word (`up_room`) and `q + 1` words are still narrower than the value, move
+    /// `q + 1` words and shift `w − r` bits back. Exact either way. The cost model prices
+    /// shifts with it, so the two never disagree.
+    pub fn split_shift(&self, bits: u32, k: u32, up_room: bool) -> Option<SplitShift> {
+        let word = self.word_bits;
+        if self.shifter.barrel || bits <= word || k % word == 0 {
+            return None;
+        }
+        let (q, r) = (k / word, k % word);
+        // The rounded-up form moves one word more than the shift, which must stay narrower
+        // than the value (a C shift by its width is undefined).
+        if word - r < r && up_room && word * (q + 1) < bits {
+            return Some(SplitShift {
+                words: q + 1,
+                bits: word - r,
+                up: true,
+            });
+        }
+        (q > 0).then_some(SplitShift {
+            words: q,
+            bits: r,
+            up: false,
+        })
     }
 
     /// Cost of a multiply of two `bits`-wide operands keeping the low `bits` of the product
@@ -330,7 +362,7 @@ impl Target {
     pub fn widening_mul_cost(&self, bits: u32, operand_bits: u32) -> u32 {
         let kind = self.multiplier.kind;
         if kind == MulKind::None {
-            let per_iter = self.add_cost(bits) * 2 + self.shift_cost(bits, 1) * 2 + 2;
+            let per_iter = self.add_cost(bits) * 2 + self.shift_cost(bits, 1, false) * 2 + 2;
             return self.costs.call + bits * per_iter;
         }
         let m = kind.width();
@@ -360,21 +392,44 @@ impl Target {
     }
 
     /// Cost of a shift-add network computing `plan.m · x` on `bits`-wide values: one adder per
-    /// step, the shifts of its operands, the final shift and negation.
-    pub fn shift_add_cost(&self, plan: &ShiftAddPlan, bits: u32) -> u32 {
+    /// step, the shifts of its operands, the final shift and negation. `up_room(c, k)`: whether
+    /// the term `c·x` shifted by `k` has room for [`Target::split_shift`]'s rounded-up form.
+    pub fn shift_add_cost(
+        &self,
+        plan: &ShiftAddPlan,
+        bits: u32,
+        up_room: &dyn Fn(i128, u32) -> bool,
+    ) -> u32 {
         let add = self.add_cost(bits);
+        let coefs = plan.step_coefficients();
+        let coef = |o: Operand| match o {
+            Operand::X => 1,
+            Operand::Step(j) => coefs[j],
+        };
+        let shift = |c: i128, k: u32| self.shift_cost(bits, k, up_room(c, k));
         let mut c = 0;
         for s in &plan.steps {
             // A shift of the input `x` by the same amount is shared between steps in practice;
             // counting each keeps the model conservative.
-            c += add + self.shift_cost(bits, s.a_shift) + self.shift_cost(bits, s.b_shift);
+            c += add + shift(coef(s.a), s.a_shift) + shift(coef(s.b), s.b_shift);
             c += self.costs.temp * self.words(bits);
             if s.negate_a {
                 c += add;
             }
         }
-        c + self.shift_cost(bits, plan.final_shift) + if plan.negate { add } else { 0 }
+        c + shift(coef(plan.result), plan.final_shift) + if plan.negate { add } else { 0 }
     }
+}
+
+/// A constant shift written as whole-word moves and a short shift ([`Target::split_shift`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SplitShift {
+    /// Whole words moved.
+    pub words: u32,
+    /// Bit positions shifted after (or, for `up`, back from) the move.
+    pub bits: u32,
+    /// The rounded-up form: one word more than the shift, then `bits` back.
+    pub up: bool,
 }
 
 impl Default for Target {
@@ -388,6 +443,30 @@ impl Default for Target {
 mod tests {
     use super::*;
     use crate::lower::shift_add;
+
+    /// One decision for the cost model and the C emitter: a shift by `8q + r` is `q` byte
+    /// moves and `r` bits, or, with room and `r > 4`, `q + 1` moves and `8 − r` bits back,
+    /// unless that move would be the value's whole width.
+    #[test]
+    fn shifts_split_alike_for_the_model_and_the_emitter() {
+        let avr = Target::by_name("atmega328p").unwrap();
+        let s = |bits, k, room| avr.split_shift(bits, k, room);
+        let sp = |words, bits, up| Some(SplitShift { words, bits, up });
+        assert_eq!(s(32, 14, true), sp(2, 2, true));
+        assert_eq!(s(32, 14, false), sp(1, 6, false));
+        assert_eq!(s(32, 11, true), sp(1, 3, false)); // r = 3: not worth rounding up
+        assert_eq!(s(32, 29, true), sp(3, 5, false)); // 4 moves would be the whole int32
+        assert_eq!(s(32, 16, true), None); // whole bytes
+        assert_eq!(s(32, 5, false), None); // under a byte, no room: one plain shift
+        assert_eq!(s(8, 5, true), None); // single-word value
+        assert!(Target::by_name("cortex-m0")
+            .unwrap()
+            .split_shift(32, 14, true)
+            .is_none());
+        // The model prices what the emitter writes: with room, 14 bits cost 2 moves' worth
+        // plus 2 bits instead of 1 move plus 6.
+        assert!(avr.shift_cost(32, 14, true) < avr.shift_cost(32, 14, false));
+    }
 
     #[test]
     fn every_builtin_target_parses_and_is_named_after_its_file() {
@@ -431,18 +510,18 @@ mod tests {
     fn shift_costs_pay_per_bit_without_a_barrel_shifter() {
         let avr = Target::by_name("atmega328p").unwrap();
         // 3 bits: a loop of 3 × (4 bytes + DEC + BRNE) plus the counter's LDI (avr-gcc -Os).
-        assert_eq!(avr.shift_cost(32, 3), 3 * (4 + 3) + 1);
-        assert_eq!(avr.shift_cost(32, 1), 4); // one bit: unrolled
-        assert_eq!(avr.shift_cost(32, 17), 4 + 4); // two bytes move, then one bit
-                                                   // 64-bit: __ashldi3, a loop per byte and per bit over 8 bytes.
-        assert_eq!(avr.shift_cost(64, 17), 8 + (8 + 3) * (2 + 1));
+        assert_eq!(avr.shift_cost(32, 3, false), 3 * (4 + 3) + 1);
+        assert_eq!(avr.shift_cost(32, 1, false), 4); // one bit: unrolled
+        assert_eq!(avr.shift_cost(32, 17, false), 4 + 4); // two bytes move, then one bit
+                                                          // 64-bit: __ashldi3, a loop per byte and per bit over 8 bytes.
+        assert_eq!(avr.shift_cost(64, 17, false), 8 + (8 + 3) * (2 + 1));
         assert_eq!(avr.add_cost(64), 8 + 8); // __adddi3
         assert_eq!(avr.add_cost(32), 4);
-        assert_eq!(avr.shift_cost(32, 8), 4); // byte moves
-        assert_eq!(avr.shift_cost(16, 9), 2 + 2);
+        assert_eq!(avr.shift_cost(32, 8, false), 4); // byte moves
+        assert_eq!(avr.shift_cost(16, 9, false), 2 + 2);
         let m0 = Target::by_name("cortex-m0").unwrap();
-        assert_eq!(m0.shift_cost(32, 17), 1);
-        assert_eq!(m0.shift_cost(64, 17), 4);
+        assert_eq!(m0.shift_cost(32, 17, false), 1);
+        assert_eq!(m0.shift_cost(64, 17, false), 4);
     }
 
     #[test]
@@ -462,7 +541,7 @@ mod tests {
         let p = shift_add::best(15);
         let cost = |n: &str| {
             let t = Target::by_name(n).unwrap();
-            (t.shift_add_cost(&p, 32), t.mul_cost(32))
+            (t.shift_add_cost(&p, 32, &|_, _| false), t.mul_cost(32))
         };
         // On AVR a 4-bit shift of 4 bytes is a loop, and the term costs saved registers: a
         // full 32-bit x · 15 goes to __mulsi3, but x · 257 = (x << 8) + x (a byte move) stays
@@ -471,7 +550,7 @@ mod tests {
         assert!(sa > mul, "AVR x·15: shift-add {sa} vs __mulsi3 {mul}");
         let avr = Target::by_name("atmega328p").unwrap();
         let (sa, mul) = (
-            avr.shift_add_cost(&shift_add::best(257), 32),
+            avr.shift_add_cost(&shift_add::best(257), 32, &|_, _| false),
             avr.mul_cost(32),
         );
         assert!(sa < mul, "AVR x·257: shift-add {sa} vs __mulsi3 {mul}");
