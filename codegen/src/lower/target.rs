@@ -322,7 +322,7 @@ impl Target {
     /// shifts with it, so the two never disagree.
     pub fn split_shift(&self, bits: u32, k: u32, up_room: bool) -> Option<SplitShift> {
         let word = self.word_bits;
-        if self.shifter.barrel || bits <= word || k % word == 0 {
+        if self.shifter.barrel || bits <= word || k.is_multiple_of(word) {
             return None;
         }
         let (q, r) = (k / word, k % word);
