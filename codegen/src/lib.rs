@@ -13,6 +13,7 @@ pub mod emit;
 pub mod interp;
 pub mod ir;
 pub mod lower;
+pub mod prop_eval;
 pub mod prove;
 pub mod qformat;
 pub mod report;

@@ -59,8 +59,7 @@ fn candidates(plan: &Plan) -> (Vec<Vec<i128>>, Vec<Vec<i128>>) {
         .map(|id| {
             let q = plan.format(id);
             let (tmin, tmax) = (q.ty.min(), q.ty.max().min(i64::MAX as i128));
-            let (l, h) = prog.sig(id).range.expect("inputs have ranges");
-            let (lo, hi) = (q.raw_ceil(l), q.raw_floor(h));
+            let (lo, hi) = plan.bounds(id);
             let name = &prog.sig(id).name;
             let mut c = vec![tmin, tmax, lo, hi, lo - 1, hi + 1, 0];
             c.extend(thresholds(plan, |v| {
@@ -105,8 +104,8 @@ pub fn cases(plan: &Plan, seed: &mut u64, random: usize) -> Vec<Case> {
         if pick(seed, 0, 3) == 0 {
             pick(seed, q.ty.min(), q.ty.max().min(i64::MAX as i128))
         } else {
-            let (l, h) = prog.sig(id).range.expect("ranged");
-            pick(seed, q.raw_ceil(l), q.raw_floor(h))
+            let (lo, hi) = plan.bounds(id);
+            pick(seed, lo, hi)
         }
     };
     let rand_state = |seed: &mut u64, k: usize| {

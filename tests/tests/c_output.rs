@@ -176,7 +176,7 @@ impl Rng {
 /// (step clamps them), sometimes at the edges.
 fn input(plan: &Plan, id: SigId, rng: &mut Rng) -> i128 {
     let q = plan.format(id);
-    let (lo, hi) = plan.raw_bounds(id).unwrap_or((q.ty.min(), q.ty.max()));
+    let (lo, hi) = plan.bounds(id);
     match rng.next() % 16 {
         0 => q.ty.min(),
         1 => q.ty.max(),

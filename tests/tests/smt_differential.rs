@@ -25,7 +25,7 @@ fn cases(p: &Plan, n_random: usize) -> Vec<Vec<i128>> {
     let span = |id: SigId| -> (i128, i128) {
         let q = p.format(id);
         match p.prog.sig(id).kind {
-            SigKind::State => p.raw_bounds(id).unwrap_or((q.ty.min(), q.ty.max())),
+            SigKind::State => p.bounds(id),
             _ => (q.ty.min(), q.ty.max()), // any input bits: step clamps them
         }
     };
@@ -189,7 +189,7 @@ fn exact_differential(stem: &str, sort: Sort, solver: Solver) {
     let full = |id: SigId| {
         let q = p.format(id);
         match p.prog.sig(id).kind {
-            SigKind::State => p.raw_bounds(id).unwrap_or((q.ty.min(), q.ty.max())),
+            SigKind::State => p.bounds(id),
             _ => (q.ty.min(), q.ty.max()),
         }
     };

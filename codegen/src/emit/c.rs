@@ -344,7 +344,7 @@ fn eva_entry(plan: &Plan) -> String {
     );
     for id in &states {
         let q = plan.format(*id);
-        let (lo, hi) = plan.raw_bounds(*id).unwrap_or((q.ty.min(), q.ty.max()));
+        let (lo, hi) = plan.bounds(*id);
         let _ = writeln!(
             o,
             "    s.{} = ({}){};",

@@ -31,10 +31,10 @@
 //! 2^126 is not emitted, and a documented constant says why.
 
 use super::rust::{fixed_ty, int_ty};
-use crate::ir::{PCond, PExpr, Property, SigId, SigKind, When};
+use crate::ir::{CmpOp, PCond, PExpr, Property, SigId, SigKind, When};
 use crate::lower::Plan;
+use crate::prop_eval::{self, Arith, ExactDomain};
 use crate::prove::obligations::{param_grids, ParamGrid};
-use crate::prove::smt::exact_binary;
 use crate::qformat::IntTy;
 use crate::report::g;
 use proc_macro2::{Ident, Literal, Span, TokenStream};
@@ -127,8 +127,8 @@ pub fn module(plan: &Plan) -> TokenStream {
     };
 
     // Bounds of each state and declared ranges of each input, as raw integers.
-    let st_bounds: Vec<(i128, i128)> = states.iter().map(|id| state_bounds(plan, *id)).collect();
-    let in_ranges: Vec<(i128, i128)> = inputs.iter().map(|id| input_range(plan, *id)).collect();
+    let st_bounds: Vec<(i128, i128)> = states.iter().map(|id| plan.bounds(*id)).collect();
+    let in_ranges: Vec<(i128, i128)> = inputs.iter().map(|id| plan.bounds(*id)).collect();
     let bound_checks = st_names.iter().zip(&st_bounds).map(|(n, (lo, hi))| {
         let (lo, hi) = (int(*lo), int(*hi));
         quote! { (#lo..=#hi).contains(&s.#n) }
@@ -714,222 +714,191 @@ impl Ev {
     }
 }
 
-/// Aligns two values to the larger binary point.
-fn align(a: Ev, b: Ev) -> Result<(Ev, Ev), String> {
-    let f = a.frac.max(b.frac);
-    Ok((a.at(f)?, b.at(f)?))
-}
-
 impl Env<'_> {
-    fn expr(&self, e: &PExpr) -> Result<Ev, String> {
-        let plan = self.plan;
-        Ok(match e {
-            PExpr::Const(c) => {
-                let (m, f) = exact_binary(*c)
-                    .ok_or_else(|| format!("the constant {c} has no exact binary value"))?;
-                Ev::konst(m, f)
-            }
-            PExpr::Sig(id, when) => {
-                let s = plan.prog.sig(*id);
-                let q = plan.format(*id);
-                let n = format_ident!("{}", s.name);
-                let (t, (lo, hi)) = match (s.kind, when) {
-                    (SigKind::Input, _) => (quote! { inputs.#n }, input_range(plan, *id)),
-                    (SigKind::State, When::Pre) => {
-                        let v = &self.pre;
-                        (quote! { #v.#n }, state_bounds(plan, *id))
-                    }
-                    (SigKind::State, When::Post) => {
-                        let v = &self.post;
-                        let r = if s.unsaturated {
-                            (q.ty.min(), q.ty.max())
-                        } else {
-                            state_bounds(plan, *id)
-                        };
-                        (quote! { #v.#n }, r)
-                    }
-                    _ => (quote! { outputs.#n }, (q.ty.min(), q.ty.max())),
-                };
-                Ev {
-                    t,
-                    frac: q.frac,
-                    lo,
-                    hi,
-                    konst: None,
-                }
-            }
-            PExpr::Param(i) => {
-                let (g, name) = self
-                    .grids
-                    .get(*i)
-                    .zip(self.params.get(*i))
-                    .ok_or_else(|| format!("free parameter {i} is not declared"))?;
-                let n = format_ident!("param_{name}");
-                Ev {
-                    t: quote! { #n },
-                    frac: g.frac,
-                    lo: g.lo,
-                    hi: g.hi,
-                    konst: None,
-                }
-            }
-            PExpr::Neg(a) => {
-                let a = self.expr(a)?;
-                if let Some(v) = a.konst {
-                    return Ok(Ev::konst(-v, a.frac));
-                }
-                let t = a.t;
-                Ev {
-                    t: quote! { (-#t) },
-                    frac: a.frac,
-                    lo: -a.hi,
-                    hi: -a.lo,
-                    konst: None,
-                }
-            }
-            PExpr::Abs(a) => {
-                let a = self.expr(a)?;
-                if let Some(v) = a.konst {
-                    return Ok(Ev::konst(v.abs(), a.frac));
-                }
-                let (lo, hi) = if a.lo >= 0 {
-                    (a.lo, a.hi)
-                } else if a.hi <= 0 {
-                    (-a.hi, -a.lo)
-                } else {
-                    (0, a.hi.max(-a.lo))
-                };
-                let t = a.t;
-                Ev {
-                    t: quote! { #t.abs() },
-                    frac: a.frac,
-                    lo,
-                    hi,
-                    konst: None,
-                }
-            }
-            PExpr::Add(a, b) | PExpr::Sub(a, b) => {
-                let (a, b) = align(self.expr(a)?, self.expr(b)?)?;
-                let add = matches!(e, PExpr::Add(..));
-                let (lo, hi) = if add {
-                    checked(a.lo.checked_add(b.lo), a.hi.checked_add(b.hi), "a sum")?
-                } else {
-                    checked(
-                        a.lo.checked_sub(b.hi),
-                        a.hi.checked_sub(b.lo),
-                        "a difference",
-                    )?
-                };
-                let (x, y) = (a.t, b.t);
-                Ev {
-                    t: if add {
-                        quote! { (#x + #y) }
-                    } else {
-                        quote! { (#x - #y) }
-                    },
-                    frac: a.frac,
-                    lo,
-                    hi,
-                    konst: None,
-                }
-            }
-            PExpr::Min(a, b) | PExpr::Max(a, b) => {
-                let (a, b) = align(self.expr(a)?, self.expr(b)?)?;
-                let (x, y) = (a.t, b.t);
-                let (t, lo, hi) = if matches!(e, PExpr::Min(..)) {
-                    (
-                        quote! { ::core::cmp::min(#x, #y) },
-                        a.lo.min(b.lo),
-                        a.hi.min(b.hi),
-                    )
-                } else {
-                    (
-                        quote! { ::core::cmp::max(#x, #y) },
-                        a.lo.max(b.lo),
-                        a.hi.max(b.hi),
-                    )
-                };
-                Ev {
-                    t,
-                    frac: a.frac,
-                    lo,
-                    hi,
-                    konst: None,
-                }
-            }
-            PExpr::Mul(a, b) => {
-                let (a, b) = (self.expr(a)?, self.expr(b)?);
-                let corners = [
-                    a.lo.checked_mul(b.lo),
-                    a.lo.checked_mul(b.hi),
-                    a.hi.checked_mul(b.lo),
-                    a.hi.checked_mul(b.hi),
-                ];
-                let all: Option<Vec<i128>> = corners.into_iter().collect();
-                let (lo, hi) = checked(
-                    all.as_ref().and_then(|v| v.iter().min().copied()),
-                    all.as_ref().and_then(|v| v.iter().max().copied()),
-                    "a product",
-                )?;
-                let frac = a.frac + b.frac;
-                if let (Some(x), Some(y)) = (a.konst, b.konst) {
-                    return Ok(Ev::konst(x * y, frac));
-                }
-                let (x, y) = (a.t, b.t);
-                Ev {
-                    t: quote! { (#x * #y) },
-                    frac,
-                    lo,
-                    hi,
-                    konst: None,
-                }
-            }
-        })
-    }
-
     fn cond(&self, c: &PCond) -> Result<TokenStream, String> {
-        Ok(match c {
-            PCond::Cmp(op, a, b) => {
-                let (a, b) = align(self.expr(a)?, self.expr(b)?)?;
-                let (x, y) = (a.t, b.t);
-                let op: TokenStream = op.symbol().parse().unwrap_or_default();
-                quote! { #x #op #y }
-            }
-            PCond::And(a, b) => {
-                let (x, y) = (self.cond(a)?, self.cond(b)?);
-                quote! { (#x && #y) }
-            }
-            PCond::Or(a, b) => {
-                let (x, y) = (self.cond(a)?, self.cond(b)?);
-                quote! { (#x || #y) }
-            }
-            PCond::Not(a) => {
-                let x = self.cond(a)?;
-                quote! { !(#x) }
-            }
-        })
+        prop_eval::cond(&mut &*self, c)
     }
 }
 
-/// Raw bounds of a state: its saturation interval, inside its storage type.
-fn state_bounds(plan: &Plan, id: SigId) -> (i128, i128) {
-    let q = plan.format(id);
-    let (lo, hi) = plan.raw_bounds(id).unwrap_or((q.ty.min(), q.ty.max()));
-    (lo.max(q.ty.min()), hi.min(q.ty.max()))
-}
+/// `i128` Rust expressions, each with the interval of its raw value: a harness refuses a
+/// property it could not evaluate without overflow.
+impl ExactDomain for &Env<'_> {
+    type Value = Ev;
+    type Bool = TokenStream;
+    type Error = String;
 
-/// Raw range of an input: its declared range quantised inward, inside its storage type (what
-/// the property obligations assume).
-fn input_range(plan: &Plan, id: SigId) -> (i128, i128) {
-    let q = plan.format(id);
-    let (lo, hi) = plan
-        .prog
-        .sig(id)
-        .range
-        .map_or((q.ty.min(), q.ty.max()), |(lo, hi)| {
-            (q.raw_ceil(lo), q.raw_floor(hi))
-        });
-    (lo.max(q.ty.min()), hi.min(q.ty.max()))
+    fn frac(v: &Ev) -> i32 {
+        v.frac
+    }
+
+    fn inexact(&self, c: f64) -> String {
+        format!("the constant {c} has no exact binary value")
+    }
+
+    fn constant(&mut self, m: i128, frac: i32) -> Result<Ev, String> {
+        Ok(Ev::konst(m, frac))
+    }
+
+    fn signal(&mut self, id: SigId, when: When) -> Result<Ev, String> {
+        let plan = self.plan;
+        let s = plan.prog.sig(id);
+        let q = plan.format(id);
+        let n = format_ident!("{}", s.name);
+        let (t, (lo, hi)) = match (s.kind, when) {
+            (SigKind::Input, _) => (quote! { inputs.#n }, plan.bounds(id)),
+            (SigKind::State, When::Pre) => {
+                let v = &self.pre;
+                (quote! { #v.#n }, plan.bounds(id))
+            }
+            (SigKind::State, When::Post) => {
+                let v = &self.post;
+                let r = if s.unsaturated {
+                    (q.ty.min(), q.ty.max())
+                } else {
+                    plan.bounds(id)
+                };
+                (quote! { #v.#n }, r)
+            }
+            _ => (quote! { outputs.#n }, (q.ty.min(), q.ty.max())),
+        };
+        Ok(Ev {
+            t,
+            frac: q.frac,
+            lo,
+            hi,
+            konst: None,
+        })
+    }
+
+    fn param(&mut self, i: usize) -> Result<Ev, String> {
+        let (g, name) = self
+            .grids
+            .get(i)
+            .zip(self.params.get(i))
+            .ok_or_else(|| format!("free parameter {i} is not declared"))?;
+        let n = format_ident!("param_{name}");
+        Ok(Ev {
+            t: quote! { #n },
+            frac: g.frac,
+            lo: g.lo,
+            hi: g.hi,
+            konst: None,
+        })
+    }
+
+    fn neg(&mut self, a: Ev) -> Result<Ev, String> {
+        if let Some(v) = a.konst {
+            return Ok(Ev::konst(-v, a.frac));
+        }
+        let t = a.t;
+        Ok(Ev {
+            t: quote! { (-#t) },
+            frac: a.frac,
+            lo: -a.hi,
+            hi: -a.lo,
+            konst: None,
+        })
+    }
+
+    fn abs(&mut self, a: Ev) -> Result<Ev, String> {
+        if let Some(v) = a.konst {
+            return Ok(Ev::konst(v.abs(), a.frac));
+        }
+        let (lo, hi) = if a.lo >= 0 {
+            (a.lo, a.hi)
+        } else if a.hi <= 0 {
+            (-a.hi, -a.lo)
+        } else {
+            (0, a.hi.max(-a.lo))
+        };
+        let t = a.t;
+        Ok(Ev {
+            t: quote! { #t.abs() },
+            frac: a.frac,
+            lo,
+            hi,
+            konst: None,
+        })
+    }
+
+    fn arith(&mut self, op: Arith, a: Ev, b: Ev, f: i32) -> Result<Ev, String> {
+        let (a, b) = (a.at(f)?, b.at(f)?);
+        let (x, y) = (a.t, b.t);
+        let (t, (lo, hi)) = match op {
+            Arith::Add => (
+                quote! { (#x + #y) },
+                checked(a.lo.checked_add(b.lo), a.hi.checked_add(b.hi), "a sum")?,
+            ),
+            Arith::Sub => (
+                quote! { (#x - #y) },
+                checked(
+                    a.lo.checked_sub(b.hi),
+                    a.hi.checked_sub(b.lo),
+                    "a difference",
+                )?,
+            ),
+            Arith::Min => (
+                quote! { ::core::cmp::min(#x, #y) },
+                (a.lo.min(b.lo), a.hi.min(b.hi)),
+            ),
+            Arith::Max => (
+                quote! { ::core::cmp::max(#x, #y) },
+                (a.lo.max(b.lo), a.hi.max(b.hi)),
+            ),
+        };
+        Ok(Ev {
+            t,
+            frac: f,
+            lo,
+            hi,
+            konst: None,
+        })
+    }
+
+    fn mul(&mut self, a: Ev, b: Ev) -> Result<Ev, String> {
+        let corners = [
+            a.lo.checked_mul(b.lo),
+            a.lo.checked_mul(b.hi),
+            a.hi.checked_mul(b.lo),
+            a.hi.checked_mul(b.hi),
+        ];
+        let all: Option<Vec<i128>> = corners.into_iter().collect();
+        let (lo, hi) = checked(
+            all.as_ref().and_then(|v| v.iter().min().copied()),
+            all.as_ref().and_then(|v| v.iter().max().copied()),
+            "a product",
+        )?;
+        let frac = a.frac + b.frac;
+        if let (Some(x), Some(y)) = (a.konst, b.konst) {
+            return Ok(Ev::konst(x * y, frac));
+        }
+        let (x, y) = (a.t, b.t);
+        Ok(Ev {
+            t: quote! { (#x * #y) },
+            frac,
+            lo,
+            hi,
+            konst: None,
+        })
+    }
+
+    fn cmp(&mut self, op: CmpOp, a: Ev, b: Ev, f: i32) -> Result<TokenStream, String> {
+        let (x, y) = (a.at(f)?.t, b.at(f)?.t);
+        let op: TokenStream = op.symbol().parse().unwrap_or_default();
+        Ok(quote! { #x #op #y })
+    }
+
+    fn and(&mut self, x: TokenStream, y: TokenStream) -> Result<TokenStream, String> {
+        Ok(quote! { (#x && #y) })
+    }
+
+    fn or(&mut self, x: TokenStream, y: TokenStream) -> Result<TokenStream, String> {
+        Ok(quote! { (#x || #y) })
+    }
+
+    fn not(&mut self, x: TokenStream) -> Result<TokenStream, String> {
+        Ok(quote! { !(#x) })
+    }
 }
 
 /// The narrowest signed Rust type holding a parameter grid.

@@ -54,7 +54,7 @@ pub fn module(plan: &Plan) -> TokenStream {
     let setters = states.iter().map(|id| {
         let name = format_ident!("{}", prog.sig(*id).name);
         let q = plan.format(*id);
-        let (lo, hi) = plan.raw_bounds(*id).unwrap_or((q.ty.min(), q.ty.max()));
+        let (lo, hi) = plan.bounds(*id);
         let (lo, hi) = (lit(lo, q.ty), lit(hi, q.ty));
         quote! { self.#name = ::core::cmp::max(::core::cmp::min(s.#name.to_bits(), #hi), #lo); }
     });

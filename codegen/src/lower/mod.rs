@@ -36,8 +36,6 @@ pub struct Plan {
     pub prog: Program,
     /// The target the cost model used.
     pub target: Target,
-    /// Storage format of each input, state and output (indexed by [`SigId`]); `None` for locals.
-    pub formats: Vec<Option<QFormat>>,
     /// All values.
     pub vals: Vec<Val>,
     /// The step body.
@@ -48,13 +46,20 @@ pub struct Plan {
     pub mults: Vec<MulNote>,
 }
 
-/// Analysis results for one signal.
+/// What the plan fixes for one signal: every consumer (emitters, prover, interpreter,
+/// reports) reads these instead of deriving them again.
 #[derive(Clone, Debug)]
 pub struct SigSummary {
     /// Physical range of the value (declared, or proved for locals and unranged outputs).
     pub range: (f64, f64),
     /// Its format (storage format, or the working format of a `let`).
     pub format: QFormat,
+    /// The raw values it holds: an input after its entry clamp and a state or ranged output
+    /// after its saturation, the declared range quantised inward (`⌈lo·2^f⌉`, `⌊hi·2^f⌋`); an
+    /// unranged output its whole type; a `let` its proved interval.
+    pub bounds: (i128, i128),
+    /// A state's raw initial value: the declared one rounded to nearest, inside `bounds`.
+    pub init: Option<i128>,
     /// Worst-case error of one step against real arithmetic (for an input: the gap its entry
     /// clamp leaves at a range bound that is off the grid, else 0).
     pub err: f64,
@@ -87,29 +92,46 @@ impl Plan {
         &self.vals[id.0]
     }
 
-    /// Storage format of an input, state or output.
+    /// The format of a signal: its storage format, or a `let`'s working format.
     pub fn format(&self, id: SigId) -> QFormat {
-        self.formats[id.0].unwrap_or(QFormat {
-            ty: IntTy::signed(32),
-            frac: 0,
-        })
+        self.summary[id.0].format
     }
 
-    /// Raw bounds of a ranged signal's saturation interval (declared range quantised inward).
+    /// The raw values a signal holds ([`SigSummary::bounds`]).
+    pub fn bounds(&self, id: SigId) -> (i128, i128) {
+        self.summary[id.0].bounds
+    }
+
+    /// The raw saturation (or entry clamp) interval of a signal with a declared range.
     pub fn raw_bounds(&self, id: SigId) -> Option<(i128, i128)> {
-        let q = self.formats[id.0]?;
-        let (lo, hi) = self.prog.sig(id).range?;
-        Some((q.raw_ceil(lo), q.raw_floor(hi)))
+        self.prog.sig(id).range.map(|_| self.bounds(id))
     }
 
-    /// Raw initial value of a state (nearest, inside the saturation interval).
+    /// A state's raw initial value (0 for other signals).
     pub fn raw_init(&self, id: SigId) -> i128 {
-        let q = self.format(id);
-        let v = q.raw_nearest(self.prog.sig(id).init.unwrap_or(0.0));
-        match self.raw_bounds(id) {
-            Some((lo, hi)) => v.clamp(lo, hi),
-            None => v,
-        }
+        self.summary[id.0].init.unwrap_or(0)
+    }
+
+    /// The storage formats of the inputs, states and outputs.
+    pub fn storage_formats(&self) -> impl Iterator<Item = QFormat> + '_ {
+        self.prog
+            .signals
+            .iter()
+            .zip(&self.summary)
+            .filter(|(s, _)| s.kind != SigKind::Local)
+            .map(|(_, sm)| sm.format)
+    }
+}
+
+/// The raw values a declared signal of format `q` holds at a step boundary: its declared range
+/// quantised inward, within the type; an unranged output, the whole type.
+fn storage_bounds(sig: &Signal, q: QFormat) -> (i128, i128) {
+    match sig.range {
+        Some((lo, hi)) => (
+            q.raw_ceil(lo).max(q.ty.min()),
+            q.raw_floor(hi).min(q.ty.max()),
+        ),
+        None => (q.ty.min(), q.ty.max()),
     }
 }
 
@@ -337,13 +359,14 @@ impl Lowered {
                             range: (q.value(v.lo), q.value(v.hi)),
                             format: q,
                             err: v.err,
+                            bounds: (v.lo, v.hi),
+                            init: None,
                         }
                     }
                     _ => {
-                        let q = formats[i].unwrap_or(QFormat {
-                            ty: IntTy::signed(32),
-                            frac: 0,
-                        });
+                        let q = formats[i].expect("every declared signal has a storage format");
+                        let bounds = storage_bounds(s, q);
+                        let init = s.init.map(|v| q.raw_nearest(v).clamp(bounds.0, bounds.1));
                         let range = s
                             .range
                             .or_else(|| self.seen.get(&id).copied())
@@ -358,6 +381,8 @@ impl Lowered {
                             range,
                             format: q,
                             err,
+                            bounds,
+                            init,
                         }
                     }
                 }
@@ -367,7 +392,6 @@ impl Lowered {
         Plan {
             prog: self.prog,
             target: self.target,
-            formats,
             vals,
             body,
             summary,
@@ -470,14 +494,7 @@ impl<'a> Lowerer<'a> {
     }
 
     fn bounds(&self, id: SigId) -> (i128, i128) {
-        let q = self.fmt(id);
-        match self.prog.sig(id).range {
-            Some((lo, hi)) => (
-                q.raw_ceil(lo).max(q.ty.min()),
-                q.raw_floor(hi).min(q.ty.max()),
-            ),
-            None => (q.ty.min(), q.ty.max()),
-        }
+        storage_bounds(self.prog.sig(id), self.fmt(id))
     }
 
     // ---- value construction ----------------------------------------------------------

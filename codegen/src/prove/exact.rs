@@ -12,9 +12,10 @@
 //!
 //! `floor` shifts (`>>`) are kept as they are: the rounding is part of what is proved.
 
-use crate::ir::{CmpOp, PCond, PExpr, SigId, SigKind, When};
+use crate::ir::{CmpOp, PCond, SigId, SigKind, When};
 use crate::lower::lir::{LStmt, Op, ValId};
 use crate::lower::Plan;
+use crate::prop_eval::{self, Arith, ExactDomain};
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write;
 use std::rc::Rc;
@@ -363,7 +364,7 @@ fn def(plan: &Plan, id: ValId, env: &BTreeMap<SigId, Rc<T>>, t: &mut Terms) {
 
 /// A property value: exact term at a binary point.
 #[derive(Clone)]
-struct Fx {
+pub struct Fx {
     t: Rc<T>,
     frac: i32,
 }
@@ -385,81 +386,97 @@ pub struct PropTerms<'a> {
 }
 
 impl PropTerms<'_> {
-    fn expr(&self, e: &PExpr) -> Option<Fx> {
-        Some(match e {
-            PExpr::Const(c) => {
-                let (m, frac) = super::smt::exact_binary(*c)?;
-                Fx {
-                    t: Rc::new(T::Const(m)),
-                    frac,
-                }
-            }
-            PExpr::Sig(id, when) => {
-                let q = self.plan.format(*id);
-                let kind = self.plan.prog.sig(*id).kind;
-                let t = match (kind, when) {
-                    (SigKind::Input, _) => self.terms.pre[id].clone(),
-                    (SigKind::State, When::Pre) if !self.pre_as_post => self.terms.pre[id].clone(),
-                    _ => self.terms.post[id].clone(),
-                };
-                Fx { t, frac: q.frac }
-            }
-            PExpr::Param(i) => {
-                let (t, f) = self.params.get(*i)?;
-                Fx {
-                    t: t.clone(),
-                    frac: *f,
-                }
-            }
-            PExpr::Neg(a) => {
-                let a = self.expr(a)?;
-                Fx {
-                    t: neg(a.t),
-                    frac: a.frac,
-                }
-            }
-            PExpr::Abs(a) => {
-                let a = self.expr(a)?;
-                let c = Rc::new(B::Cmp(CmpOp::Lt, a.t.clone(), zero()));
-                Fx {
-                    t: ite(c, neg(a.t.clone()), a.t),
-                    frac: a.frac,
-                }
-            }
-            PExpr::Add(a, b) | PExpr::Sub(a, b) | PExpr::Min(a, b) | PExpr::Max(a, b) => {
-                let (a2, b2) = (self.expr(a)?, self.expr(b)?);
-                let f = a2.frac.max(b2.frac);
-                let (x, y) = (align(a2, f), align(b2, f));
-                let t = match e {
-                    PExpr::Add(..) => add(x, y),
-                    PExpr::Sub(..) => sub(x, y),
-                    PExpr::Min(..) => ite(Rc::new(B::Cmp(CmpOp::Lt, x.clone(), y.clone())), x, y),
-                    _ => ite(Rc::new(B::Cmp(CmpOp::Lt, x.clone(), y.clone())), y, x),
-                };
-                Fx { t, frac: f }
-            }
-            PExpr::Mul(a, b) => {
-                let (a, b) = (self.expr(a)?, self.expr(b)?);
-                Fx {
-                    t: mul(a.t, b.t),
-                    frac: a.frac + b.frac,
-                }
-            }
+    /// The boolean term of a property condition.
+    pub fn cond(&self, c: &PCond) -> Option<Rc<B>> {
+        prop_eval::cond(&mut &*self, c).ok()
+    }
+}
+
+/// Exact terms ([`T`], [`B`]), later written as bit-vectors or integers by an [`Emitter`].
+impl ExactDomain for &PropTerms<'_> {
+    type Value = Fx;
+    type Bool = Rc<B>;
+    type Error = ();
+
+    fn frac(v: &Fx) -> i32 {
+        v.frac
+    }
+
+    fn inexact(&self, _: f64) {}
+
+    fn constant(&mut self, m: i128, frac: i32) -> Result<Fx, ()> {
+        Ok(Fx {
+            t: Rc::new(T::Const(m)),
+            frac,
         })
     }
 
-    /// The boolean term of a property condition.
-    pub fn cond(&self, c: &PCond) -> Option<Rc<B>> {
-        Some(Rc::new(match c {
-            PCond::Cmp(op, a, b) => {
-                let (a, b) = (self.expr(a)?, self.expr(b)?);
-                let f = a.frac.max(b.frac);
-                B::Cmp(*op, align(a, f), align(b, f))
-            }
-            PCond::And(a, b) => B::And(self.cond(a)?, self.cond(b)?),
-            PCond::Or(a, b) => B::Or(self.cond(a)?, self.cond(b)?),
-            PCond::Not(a) => B::Not(self.cond(a)?),
-        }))
+    fn signal(&mut self, id: SigId, when: When) -> Result<Fx, ()> {
+        let q = self.plan.format(id);
+        let kind = self.plan.prog.sig(id).kind;
+        let t = match (kind, when) {
+            (SigKind::Input, _) => self.terms.pre[&id].clone(),
+            (SigKind::State, When::Pre) if !self.pre_as_post => self.terms.pre[&id].clone(),
+            _ => self.terms.post[&id].clone(),
+        };
+        Ok(Fx { t, frac: q.frac })
+    }
+
+    fn param(&mut self, i: usize) -> Result<Fx, ()> {
+        let (t, f) = self.params.get(i).ok_or(())?;
+        Ok(Fx {
+            t: t.clone(),
+            frac: *f,
+        })
+    }
+
+    fn neg(&mut self, a: Fx) -> Result<Fx, ()> {
+        Ok(Fx {
+            t: neg(a.t),
+            frac: a.frac,
+        })
+    }
+
+    fn abs(&mut self, a: Fx) -> Result<Fx, ()> {
+        let c = Rc::new(B::Cmp(CmpOp::Lt, a.t.clone(), zero()));
+        Ok(Fx {
+            t: ite(c, neg(a.t.clone()), a.t),
+            frac: a.frac,
+        })
+    }
+
+    fn arith(&mut self, op: Arith, a: Fx, b: Fx, f: i32) -> Result<Fx, ()> {
+        let (x, y) = (align(a, f), align(b, f));
+        let t = match op {
+            Arith::Add => add(x, y),
+            Arith::Sub => sub(x, y),
+            Arith::Min => ite(Rc::new(B::Cmp(CmpOp::Lt, x.clone(), y.clone())), x, y),
+            Arith::Max => ite(Rc::new(B::Cmp(CmpOp::Lt, x.clone(), y.clone())), y, x),
+        };
+        Ok(Fx { t, frac: f })
+    }
+
+    fn mul(&mut self, a: Fx, b: Fx) -> Result<Fx, ()> {
+        Ok(Fx {
+            t: mul(a.t, b.t),
+            frac: a.frac + b.frac,
+        })
+    }
+
+    fn cmp(&mut self, op: CmpOp, a: Fx, b: Fx, f: i32) -> Result<Rc<B>, ()> {
+        Ok(Rc::new(B::Cmp(op, align(a, f), align(b, f))))
+    }
+
+    fn and(&mut self, a: Rc<B>, b: Rc<B>) -> Result<Rc<B>, ()> {
+        Ok(Rc::new(B::And(a, b)))
+    }
+
+    fn or(&mut self, a: Rc<B>, b: Rc<B>) -> Result<Rc<B>, ()> {
+        Ok(Rc::new(B::Or(a, b)))
+    }
+
+    fn not(&mut self, a: Rc<B>) -> Result<Rc<B>, ()> {
+        Ok(Rc::new(B::Not(a)))
     }
 }
 

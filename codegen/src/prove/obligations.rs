@@ -155,13 +155,7 @@ pub const ABSTRACT_BV: Encoding = Encoding {
 
 /// The grid of property `p`'s free parameters.
 pub fn param_grids(plan: &Plan, p: usize) -> Vec<ParamGrid> {
-    let finest = plan
-        .formats
-        .iter()
-        .flatten()
-        .map(|q| q.frac)
-        .max()
-        .unwrap_or(0);
+    let finest = plan.storage_formats().map(|q| q.frac).max().unwrap_or(0);
     plan.prog.properties[p]
         .params
         .iter()
@@ -555,8 +549,7 @@ fn signed_view(plan: &Plan, id: SigId, term: &str) -> (String, u32) {
 /// `term` (a storage-typed value of state `id`) lies within the state's saturation bounds.
 fn state_bound(plan: &Plan, id: SigId, term: &str) -> String {
     let (t, w) = signed_view(plan, id, term);
-    let q = plan.format(id);
-    let (lo, hi) = plan.raw_bounds(id).unwrap_or((q.ty.min(), q.ty.max()));
+    let (lo, hi) = plan.bounds(id);
     in_range(&t, w, lo, hi)
 }
 
@@ -638,11 +631,9 @@ fn step_query(
     if inputs_in_range {
         let prog = &plan.prog;
         for id in prog.ids_of(SigKind::Input) {
-            let q = plan.format(id);
-            if let Some((lo, hi)) = prog.sig(id).range {
-                let (t, w) = signed_view(plan, id, &smt::input_var(prog, id));
-                premises.push(in_range(&t, w, q.raw_ceil(lo), q.raw_floor(hi)));
-            }
+            let (lo, hi) = plan.bounds(id);
+            let (t, w) = signed_view(plan, id, &smt::input_var(prog, id));
+            premises.push(in_range(&t, w, lo, hi));
         }
     }
     premises.extend(lemmas(plan, paths, needed, None));
@@ -807,12 +798,7 @@ fn exact_query(
         let s = prog.sig(id);
         match (s.kind, side) {
             (SigKind::State, Side::Initial) => (plan.raw_init(id), plan.raw_init(id)),
-            (SigKind::State, _) => plan.raw_bounds(id).unwrap_or((q.ty.min(), q.ty.max())),
-            (SigKind::Input, Side::Property) => {
-                s.range.map_or((q.ty.min(), q.ty.max()), |(lo, hi)| {
-                    (q.raw_ceil(lo), q.raw_floor(hi))
-                })
-            }
+            (SigKind::State, _) | (SigKind::Input, Side::Property) => plan.bounds(id),
             _ => (q.ty.min(), q.ty.max()),
         }
     };

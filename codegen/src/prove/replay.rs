@@ -2,6 +2,10 @@
 //! executable semantics the generated Rust is tested bit-identical to) and the violated
 //! condition is re-evaluated in exact big-integer arithmetic that shares no code with the SMT
 //! encoder. Only a counterexample that replays is reported as a refutation.
+//!
+//! The encoders evaluate property expressions through one shared evaluator
+//! ([`crate::prop_eval`]); this module keeps its own on purpose (`Q` below), so that a mistake
+//! there cannot confirm its own counterexamples.
 
 use super::obligations::{param_grids, Goal, Obligation};
 use crate::interp::step_fixed;
@@ -206,8 +210,7 @@ pub fn replay(plan: &Plan, ob: &Obligation, cex: &Cex, initial: bool) -> Replay 
         };
     }
     let bounds_ok = |vals: &[i128], id: SigId| {
-        let q = plan.format(id);
-        let (lo, hi) = plan.raw_bounds(id).unwrap_or((q.ty.min(), q.ty.max()));
+        let (lo, hi) = plan.bounds(id);
         (lo..=hi).contains(&vals[id.0])
     };
     if initial {

@@ -14,6 +14,7 @@
 use crate::ir::{CmpOp, PCond, PExpr, Program, SigId, SigKind, When};
 use crate::lower::lir::{LStmt, Op, Val, ValId};
 use crate::lower::Plan;
+use crate::prop_eval::{self, Arith, ExactDomain};
 use std::collections::BTreeMap;
 use std::fmt::Write;
 
@@ -310,19 +311,7 @@ impl Exact {
     }
 }
 
-/// The exact binary value of an f64 as `m · 2^-frac` with `frac ≥ 0` as small as possible.
-pub fn exact_binary(c: f64) -> Option<(i128, i32)> {
-    if !c.is_finite() {
-        return None;
-    }
-    for frac in 0..1100 {
-        let scaled = c * 2f64.powi(frac);
-        if scaled.fract() == 0.0 {
-            return (scaled.abs() < 2f64.powi(120)).then_some((scaled as i128, frac));
-        }
-    }
-    None
-}
+pub use crate::prop_eval::exact_binary;
 
 /// Property-encoding context: where signals and parameters come from.
 pub struct PropEnv<'a> {
@@ -337,7 +326,39 @@ pub struct PropEnv<'a> {
 }
 
 impl PropEnv<'_> {
-    fn signal(&self, id: SigId, when: When) -> Exact {
+    /// Exact term of a property expression.
+    pub fn expr(&self, e: &PExpr) -> Option<Exact> {
+        prop_eval::expr(&mut &*self, e).ok()
+    }
+
+    /// Exact term of a property condition.
+    pub fn cond(&self, c: &PCond) -> Option<String> {
+        prop_eval::cond(&mut &*self, c).ok()
+    }
+}
+
+/// SMT bit-vector terms: every value a signed term at the narrowest width that holds it.
+impl ExactDomain for &PropEnv<'_> {
+    type Value = Exact;
+    type Bool = String;
+    type Error = ();
+
+    fn frac(v: &Exact) -> i32 {
+        v.frac
+    }
+
+    fn inexact(&self, _: f64) {}
+
+    fn constant(&mut self, m: i128, frac: i32) -> Result<Exact, ()> {
+        let width = signed_bits(m, m);
+        Ok(Exact {
+            term: lit(m, width),
+            width,
+            frac,
+        })
+    }
+
+    fn signal(&mut self, id: SigId, when: When) -> Result<Exact, ()> {
         let q = self.plan.format(id);
         let prog = &self.plan.prog;
         let raw = match (prog.sig(id).kind, when) {
@@ -351,96 +372,82 @@ impl PropEnv<'_> {
         } else {
             (resize(&raw, q.ty.bits, q.ty.bits + 1, false), q.ty.bits + 1)
         };
-        Exact {
+        Ok(Exact {
             term,
             width,
             frac: q.frac,
-        }
-    }
-
-    /// Exact term of a property expression.
-    pub fn expr(&self, e: &PExpr) -> Option<Exact> {
-        Some(match e {
-            PExpr::Const(c) => {
-                let (m, frac) = exact_binary(*c)?;
-                let width = signed_bits(m, m);
-                Exact {
-                    term: lit(m, width),
-                    width,
-                    frac,
-                }
-            }
-            PExpr::Sig(id, when) => self.signal(*id, *when),
-            PExpr::Param(i) => {
-                let (v, w, f) = &self.params[*i];
-                Exact {
-                    term: v.clone(),
-                    width: *w,
-                    frac: *f,
-                }
-            }
-            PExpr::Neg(a) => {
-                let a = self.expr(a)?;
-                let w = a.width + 1;
-                Exact {
-                    term: format!("(bvneg {})", a.to(w, a.frac)),
-                    width: w,
-                    frac: a.frac,
-                }
-            }
-            PExpr::Abs(a) => {
-                let a = self.expr(a)?;
-                let w = a.width + 1;
-                let t = a.to(w, a.frac);
-                Exact {
-                    term: format!("(ite (bvslt {t} {z}) (bvneg {t}) {t})", z = lit(0, w)),
-                    width: w,
-                    frac: a.frac,
-                }
-            }
-            PExpr::Add(a, b) | PExpr::Sub(a, b) | PExpr::Min(a, b) | PExpr::Max(a, b) => {
-                let (a2, b2) = (self.expr(a)?, self.expr(b)?);
-                let f = a2.frac.max(b2.frac);
-                let w = (a2.width + (f - a2.frac) as u32).max(b2.width + (f - b2.frac) as u32) + 1;
-                let (x, y) = (a2.to(w, f), b2.to(w, f));
-                let term = match e {
-                    PExpr::Add(..) => format!("(bvadd {x} {y})"),
-                    PExpr::Sub(..) => format!("(bvsub {x} {y})"),
-                    PExpr::Min(..) => format!("(ite (bvslt {x} {y}) {x} {y})"),
-                    _ => format!("(ite (bvslt {x} {y}) {y} {x})"),
-                };
-                Exact {
-                    term,
-                    width: w,
-                    frac: f,
-                }
-            }
-            PExpr::Mul(a, b) => {
-                let (a, b) = (self.expr(a)?, self.expr(b)?);
-                let w = a.width + b.width;
-                Exact {
-                    term: format!("(bvmul {} {})", a.to(w, a.frac), b.to(w, b.frac)),
-                    width: w,
-                    frac: a.frac + b.frac,
-                }
-            }
         })
     }
 
-    /// Exact term of a property condition.
-    pub fn cond(&self, c: &PCond) -> Option<String> {
-        Some(match c {
-            PCond::Cmp(op, a, b) => {
-                let (a, b) = (self.expr(a)?, self.expr(b)?);
-                let f = a.frac.max(b.frac);
-                let w = (a.width + (f - a.frac) as u32).max(b.width + (f - b.frac) as u32);
-                let (x, y) = (a.to(w, f), b.to(w, f));
-                signed_cmp(*op, &x, &y)
-            }
-            PCond::And(a, b) => format!("(and {} {})", self.cond(a)?, self.cond(b)?),
-            PCond::Or(a, b) => format!("(or {} {})", self.cond(a)?, self.cond(b)?),
-            PCond::Not(a) => format!("(not {})", self.cond(a)?),
+    fn param(&mut self, i: usize) -> Result<Exact, ()> {
+        let (v, w, f) = self.params.get(i).ok_or(())?;
+        Ok(Exact {
+            term: v.clone(),
+            width: *w,
+            frac: *f,
         })
+    }
+
+    fn neg(&mut self, a: Exact) -> Result<Exact, ()> {
+        let w = a.width + 1;
+        Ok(Exact {
+            term: format!("(bvneg {})", a.to(w, a.frac)),
+            width: w,
+            frac: a.frac,
+        })
+    }
+
+    fn abs(&mut self, a: Exact) -> Result<Exact, ()> {
+        let w = a.width + 1;
+        let t = a.to(w, a.frac);
+        Ok(Exact {
+            term: format!("(ite (bvslt {t} {z}) (bvneg {t}) {t})", z = lit(0, w)),
+            width: w,
+            frac: a.frac,
+        })
+    }
+
+    fn arith(&mut self, op: Arith, a: Exact, b: Exact, f: i32) -> Result<Exact, ()> {
+        let w = (a.width + (f - a.frac) as u32).max(b.width + (f - b.frac) as u32) + 1;
+        let (x, y) = (a.to(w, f), b.to(w, f));
+        let term = match op {
+            Arith::Add => format!("(bvadd {x} {y})"),
+            Arith::Sub => format!("(bvsub {x} {y})"),
+            Arith::Min => format!("(ite (bvslt {x} {y}) {x} {y})"),
+            Arith::Max => format!("(ite (bvslt {x} {y}) {y} {x})"),
+        };
+        Ok(Exact {
+            term,
+            width: w,
+            frac: f,
+        })
+    }
+
+    fn mul(&mut self, a: Exact, b: Exact) -> Result<Exact, ()> {
+        let w = a.width + b.width;
+        Ok(Exact {
+            term: format!("(bvmul {} {})", a.to(w, a.frac), b.to(w, b.frac)),
+            width: w,
+            frac: a.frac + b.frac,
+        })
+    }
+
+    fn cmp(&mut self, op: CmpOp, a: Exact, b: Exact, f: i32) -> Result<String, ()> {
+        let w = (a.width + (f - a.frac) as u32).max(b.width + (f - b.frac) as u32);
+        let (x, y) = (a.to(w, f), b.to(w, f));
+        Ok(signed_cmp(op, &x, &y))
+    }
+
+    fn and(&mut self, a: String, b: String) -> Result<String, ()> {
+        Ok(format!("(and {a} {b})"))
+    }
+
+    fn or(&mut self, a: String, b: String) -> Result<String, ()> {
+        Ok(format!("(or {a} {b})"))
+    }
+
+    fn not(&mut self, a: String) -> Result<String, ()> {
+        Ok(format!("(not {a})"))
     }
 }
 
@@ -465,13 +472,5 @@ mod tests {
         assert_eq!(signed_bits(0, 128), 9);
         assert_eq!(signed_bits(0, 0), 1);
         assert_eq!(signed_bits(-1, 0), 1);
-    }
-
-    #[test]
-    fn exact_binary_values() {
-        assert_eq!(exact_binary(0.9375), Some((15, 4)));
-        assert_eq!(exact_binary(-3.0), Some((-3, 0)));
-        let (m, f) = exact_binary(0.1).unwrap();
-        assert_eq!(m as f64 / 2f64.powi(f), 0.1);
     }
 }
