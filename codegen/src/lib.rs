@@ -18,6 +18,7 @@ pub mod prove;
 pub mod qformat;
 pub mod report;
 pub mod spec;
+pub mod text;
 
 pub use diag::Diag;
 pub use lower::target::Target;

@@ -14,6 +14,7 @@
 //! code on purpose: it is the independent check of what the encoders claim.
 
 use crate::ir::{CmpOp, PCond, PExpr, SigId, When};
+use crate::lower::Plan;
 
 /// `+`, `-`, `min`, `max`: the operations whose operands share a binary point.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -133,6 +134,62 @@ pub fn cond<D: ExactDomain>(d: &mut D, c: &PCond) -> Result<D::Bool, D::Error> {
             d.not(a)
         }
     }
+}
+
+/// A property's free parameter (`forall p in [LO, HI]`) as the obligations and harnesses
+/// quantify it: on the grid of the finest storage format of the spec, within its range.
+#[derive(Clone, Debug)]
+pub struct ParamGrid {
+    /// The variable the solvers know it by (`p_NAME`).
+    pub var: String,
+    /// Bits of the narrowest signed integer holding every grid point.
+    pub width: u32,
+    /// Fraction bits: those of the finest signal format.
+    pub frac: i32,
+    /// Smallest raw grid point.
+    pub lo: i128,
+    /// Largest raw grid point.
+    pub hi: i128,
+}
+
+/// The grids of property `p`'s free parameters.
+pub fn param_grids(plan: &Plan, p: usize) -> Vec<ParamGrid> {
+    let finest = plan.storage_formats().map(|q| q.frac).max().unwrap_or(0);
+    plan.prog.properties[p]
+        .params
+        .iter()
+        .map(|fp| {
+            let scale = 2f64.powi(finest);
+            let (lo, hi) = (
+                (fp.range.0 * scale).ceil() as i128,
+                (fp.range.1 * scale).floor() as i128,
+            );
+            ParamGrid {
+                var: param_var(&fp.name),
+                width: signed_bits(lo, hi),
+                frac: finest,
+                lo,
+                hi,
+            }
+        })
+        .collect()
+}
+
+/// The solver variable of the free parameter `name`.
+pub fn param_var(name: &str) -> String {
+    format!("p_{name}")
+}
+
+/// The fewest bits of a signed integer holding every value in `[lo, hi]`.
+pub fn signed_bits(lo: i128, hi: i128) -> u32 {
+    let need = |v: i128| {
+        if v >= 0 {
+            129 - v.leading_zeros()
+        } else {
+            129 - (!v).leading_zeros()
+        }
+    };
+    need(lo).max(need(hi)).max(1)
 }
 
 /// The exact binary value of an f64 as `m · 2^-frac` with `frac ≥ 0` as small as possible

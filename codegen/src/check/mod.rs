@@ -89,7 +89,7 @@ impl Checker {
                             value.span(),
                             format!(
                                 "the period {} s is not a whole number of microseconds",
-                                crate::report::g(v)
+                                crate::text::g(v)
                             ),
                         )
                         .label("not whole µs")

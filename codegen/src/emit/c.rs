@@ -159,7 +159,7 @@ fn header(plan: &Plan) -> String {
                 c_ty(plan.format(*id).ty),
                 ident(&s.name),
                 super::kind_name(kind),
-                crate::report::signal_range_text(plan, *id),
+                crate::text::signal_range_text(plan, *id),
                 s.unit.as_deref().unwrap_or(""),
                 sm.format
             );

@@ -33,10 +33,9 @@
 use super::rust::{fixed_ty, int_ty};
 use crate::ir::{CmpOp, PCond, PExpr, Property, SigId, SigKind, When};
 use crate::lower::Plan;
-use crate::prop_eval::{self, Arith, ExactDomain};
-use crate::prove::obligations::{param_grids, ParamGrid};
+use crate::prop_eval::{self, param_grids, Arith, ExactDomain, ParamGrid};
 use crate::qformat::IntTy;
-use crate::report::g;
+use crate::text::g;
 use proc_macro2::{Ident, Literal, Span, TokenStream};
 use quote::{format_ident, quote};
 

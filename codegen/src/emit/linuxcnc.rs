@@ -40,7 +40,7 @@ use super::c;
 use crate::ir::{SigId, SigKind};
 use crate::lower::Plan;
 use crate::qformat::{QFormat, Rounding};
-use crate::report::g;
+use crate::text::g;
 use std::fmt;
 
 pub use names::HAL_NAME_LEN;

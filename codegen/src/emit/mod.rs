@@ -10,7 +10,7 @@ pub mod rust;
 
 use crate::ir::{SigId, SigKind};
 use crate::lower::Plan;
-use crate::report::{bound, signal_range_text};
+use crate::text::{bound, signal_range_text};
 use proc_macro2::TokenStream;
 
 /// Formats emitted tokens as Rust source (rustfmt-like, via prettyplease).

@@ -244,11 +244,11 @@ fn choose_format(s: &Signal, word: u32) -> Result<QFormat> {
             format!(
                 "the range [{}, {}] of `{}` is narrower than one step of its format {q} \
                  (LSB {:.3e}): every value would be stored as {}",
-                crate::report::g(lo),
-                crate::report::g(hi),
+                crate::text::g(lo),
+                crate::text::g(hi),
                 s.name,
                 q.lsb(),
-                crate::report::g(q.value(q.raw_ceil(lo)))
+                crate::text::g(q.value(q.raw_ceil(lo)))
             ),
         )
         .label("too narrow to represent")
@@ -1079,7 +1079,7 @@ impl<'a> Lowerer<'a> {
                 format!(
                     "the constant {} vanishes here: at the resolution of the value it meets \
                      (LSB {:.3e}) it rounds to 0",
-                    crate::report::g(c),
+                    crate::text::g(c),
                     pow2(-frac)
                 ),
             )
@@ -1441,7 +1441,7 @@ impl<'a> Lowerer<'a> {
                 format!(
                     "the product with {} overflows: its magnitude exceeds the f64 range \
                      (±1.8e308), so neither the reference nor the fixed-point code can hold it",
-                    crate::report::g(c)
+                    crate::text::g(c)
                 ),
             )
             .label("overflows")
@@ -1453,8 +1453,8 @@ impl<'a> Lowerer<'a> {
                 format!(
                     "the factor {} vanishes in this product: |{} · x| ≤ {:.3e} is below half the \
                      resolution of the other factor (LSB {:.3e}), so the product would be 0",
-                    crate::report::g(c),
-                    crate::report::g(c),
+                    crate::text::g(c),
+                    crate::text::g(c),
                     c.abs() * mx,
                     pow2(-xv.frac)
                 ),
@@ -1660,7 +1660,7 @@ fn too_wide_product(c: f64, span: Span) -> Diag {
         format!(
             "the product with {} cannot be computed in 64-bit arithmetic at the precision qloop \
              guarantees (the constant quantised within half an LSB of the other factor)",
-            crate::report::g(c)
+            crate::text::g(c)
         ),
     )
     .help("narrow the other factor's range, or change units so that the constant is closer to 1")

@@ -101,20 +101,7 @@ pub struct Obligation {
     pub encoding: Option<&'static str>,
 }
 
-/// Free-parameter encoding: the grid a parameter ranges over.
-#[derive(Clone, Debug)]
-pub struct ParamGrid {
-    /// SMT variable.
-    pub var: String,
-    /// Width.
-    pub width: u32,
-    /// Fraction bits: those of the finest signal format.
-    pub frac: i32,
-    /// Raw bounds.
-    pub lo: i128,
-    /// Raw bounds.
-    pub hi: i128,
-}
+pub use crate::prop_eval::{param_grids, ParamGrid};
 
 /// One encoding of an exact-term query: sort and product treatment.
 #[derive(Clone, Copy, Debug)]
@@ -152,29 +139,6 @@ pub const ABSTRACT_BV: Encoding = Encoding {
     products: exact::Products::Interval,
     label: "abstracted products",
 };
-
-/// The grid of property `p`'s free parameters.
-pub fn param_grids(plan: &Plan, p: usize) -> Vec<ParamGrid> {
-    let finest = plan.storage_formats().map(|q| q.frac).max().unwrap_or(0);
-    plan.prog.properties[p]
-        .params
-        .iter()
-        .map(|fp| {
-            let scale = 2f64.powi(finest);
-            let (lo, hi) = (
-                (fp.range.0 * scale).ceil() as i128,
-                (fp.range.1 * scale).floor() as i128,
-            );
-            ParamGrid {
-                var: smt::param_var(&fp.name),
-                width: signed_bits(lo, hi),
-                frac: finest,
-                lo,
-                hi,
-            }
-        })
-        .collect()
-}
 
 /// Builds every obligation of the plan.
 pub fn obligations(plan: &Plan) -> Vec<Obligation> {

@@ -42,17 +42,7 @@ pub fn resize(t: &str, from: u32, to: u32, signed: bool) -> String {
     }
 }
 
-/// The fewest bits of a signed integer holding every value in `[lo, hi]`.
-pub fn signed_bits(lo: i128, hi: i128) -> u32 {
-    let need = |v: i128| {
-        if v >= 0 {
-            129 - v.leading_zeros()
-        } else {
-            129 - (!v).leading_zeros()
-        }
-    };
-    need(lo).max(need(hi)).max(1)
-}
+pub use crate::prop_eval::signed_bits;
 
 /// A signed comparison of two terms of one width.
 pub fn signed_cmp(op: CmpOp, x: &str, y: &str) -> String {
@@ -85,10 +75,7 @@ pub fn pre_var(prog: &Program, id: SigId) -> String {
     format!("pre_{}", prog.sig(id).name)
 }
 
-/// The variable of a property's free parameter.
-pub fn param_var(name: &str) -> String {
-    format!("p_{name}")
-}
+pub use crate::prop_eval::param_var;
 
 /// The whole step, as definitions over `in_*` and `pre_*` variables.
 pub struct Encoding {

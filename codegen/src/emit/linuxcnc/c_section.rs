@@ -4,7 +4,7 @@
 use super::{c, double_c, hal_names, pow2_c, Layout, Port, MARKERS, VARIABLES};
 use crate::lower::Plan;
 use crate::qformat::Rounding;
-use crate::report::g;
+use crate::text::g;
 use std::fmt::Write;
 
 /// The names pushed away around the controller and glue: every HAL name and variable of the

@@ -5,7 +5,7 @@ use super::{conversion_text, doc_prefix, double_c, names, pow2_text, unit, Layou
 use crate::ir::SigId;
 use crate::lower::Plan;
 use crate::qformat::Rounding;
-use crate::report::{g, signal_range_text};
+use crate::text::{g, signal_range_text};
 use std::fmt::Write;
 
 /// Everything before the `;;` line.
