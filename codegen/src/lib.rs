@@ -1,7 +1,7 @@
 //! qloop: compiles declarative adaptive-controller specs into division-free Q-format
 //! fixed-point update routines, with an f64 reference controller from the same spec.
 //!
-//! Stages, each its own module: [`spec`] (parse) → [`check`] (names, constants → [`ir`]) →
+//! Stages, each its own module: [`lang`] (the spec language: scan, parse) → [`check`] (names, constants → [`ir`]) →
 //! [`lower`] (range analysis, Q-formats, shift-add, cost model → integer plan) → [`emit`]
 //! (Rust; reference) and [`interp`] (bit-exact and real interpreters) → [`report`].
 
@@ -17,7 +17,7 @@ pub mod prop_eval;
 pub mod prove;
 pub mod qformat;
 pub mod report;
-pub mod spec;
+pub mod lang;
 pub mod text;
 
 pub use diag::Diag;
@@ -31,14 +31,14 @@ pub const DEMO_SPEC: &str = include_str!("../../verified/specs/koren_masory_1981
 
 /// Parses, checks and lowers a spec given as text.
 pub fn compile_str(src: &str, target: &Target) -> diag::Result<Plan> {
-    let ast = spec::parse::parse_str(src)?;
+    let ast = lang::parse::parse_str(src)?;
     let prog = check::check(&ast)?;
     lower::lower(&prog, target)
 }
 
 /// Parses, checks and lowers a spec given as tokens (the macro's input).
 pub fn compile_tokens(tokens: TokenStream, target: &Target) -> diag::Result<Plan> {
-    let ast = spec::parse::parse_tokens(tokens)?;
+    let ast = lang::parse::parse_tokens(tokens)?;
     let prog = check::check(&ast)?;
     lower::lower(&prog, target)
 }

@@ -1,10 +1,10 @@
-//! The nesting and length limits of `spec::scan` keep every stage within its stack: the deepest
+//! The nesting and length limits of `lang::scan` keep every stage within its stack: the deepest
 //! specs the limits admit go through every stage (check, lowering, every emitter, the proof
 //! obligations) in a thread with a 2 MiB stack, in the debug build the tests use; specs one
 //! step beyond get a located error; and the issue-12 specs that aborted `qloop check` with a
 //! stack overflow get one too.
 
-use qloop::spec::scan::{measure, MAX_LENGTH, MAX_NESTING};
+use qloop::lang::scan::{measure, MAX_LENGTH, MAX_NESTING};
 use qloop::Target;
 
 /// A spec whose step assigns `y = EXPR;` (brackets used by the spec itself: 2).

@@ -7,6 +7,6 @@ use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
     if let Ok(src) = std::str::from_utf8(data) {
-        let _ = qloop::spec::parse::parse_str(src);
+        let _ = qloop::lang::parse::parse_str(src);
     }
 });

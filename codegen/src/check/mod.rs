@@ -5,8 +5,8 @@
 use crate::diag::{Diag, Result};
 use crate::ir::*;
 use crate::qformat::{IntTy, QFormat, Rounding, WIDTHS};
-use crate::spec::ast::*;
-use crate::spec::parse::doc_lines;
+use crate::lang::ast::*;
+use crate::lang::parse::doc_lines;
 
 mod props;
 use proc_macro2::Span;
@@ -512,7 +512,7 @@ impl Checker {
     // ---- expressions -----------------------------------------------------------------
 
     /// One expression. A thin dispatcher: each form has its own function, so that the frame
-    /// this recursion repeats per nesting level stays small (see `spec::scan`).
+    /// this recursion repeats per nesting level stays small (see `lang::scan`).
     fn expr(&self, e: &SExpr) -> Result<Expr> {
         match e {
             SExpr::Lit(l) => Ok(Expr::Const {
@@ -949,7 +949,7 @@ fn to_snake(s: &str) -> String {
 
 #[cfg(test)]
 mod tests {
-    use crate::spec::parse::parse_str;
+    use crate::lang::parse::parse_str;
 
     /// Compiles `body` inside a minimal controller; returns the error's message and
     /// line:col (line 1 is the `controller` line).

@@ -4,7 +4,7 @@
 use super::{lit_value, path_ident, unknown, Checker};
 use crate::diag::{Diag, Result};
 use crate::ir::*;
-use crate::spec::ast::PropItem;
+use crate::lang::ast::PropItem;
 use std::collections::HashMap;
 use syn::spanned::Spanned;
 use syn::{BinOp, Expr as SExpr, UnOp};

@@ -968,7 +968,7 @@ impl<'a> Lowerer<'a> {
     /// Lowers `e`; a bare constant takes `ctx` fraction bits (or more, if that makes it exact).
     fn expr(&mut self, e: &Expr, ctx: i32, out: &mut Vec<LStmt>) -> Result<ValId> {
         // A thin dispatcher: this recursion repeats once per operator, so each form has its own
-        // function and the frame repeated per level stays small (see `spec::scan`).
+        // function and the frame repeated per level stays small (see `lang::scan`).
         match e {
             Expr::Const { value, span, .. } => self.constant(*value, ctx, *span, out),
             Expr::Var(id, span) => self.var(*id, *span, out),
