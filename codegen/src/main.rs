@@ -377,7 +377,10 @@ fn run(cli: Cli) -> Result<(), Fail> {
         }
         Cmd::Demo { out } => demo(&out),
         Cmd::Targets => {
-            print!("{}", qloop::report::targets_table(&Target::builtin()));
+            print!(
+                "{}",
+                qloop::report::targets_table(&qloop::targets::builtin())
+            );
             Ok(())
         }
     }
@@ -530,16 +533,16 @@ fn target(name: &str) -> Result<Target, Fail> {
             eprintln!("error: cannot read target file `{name}`: {e}");
             Fail(2)
         })?;
-        return Target::from_toml(&text).map_err(|e| {
+        return qloop::targets::from_toml(&text).map_err(|e| {
             eprintln!("error: {name}: {e}");
             eprintln!("help: see targets/*.toml for the format");
             Fail(2)
         });
     }
-    Target::by_name(name).ok_or_else(|| {
+    qloop::targets::by_name(name).ok_or_else(|| {
         eprintln!(
             "error: unknown target `{name}`; built-in targets: {} (or give a target file, `*.toml`)",
-            Target::builtin_names().join(", ")
+            qloop::targets::builtin_names().join(", ")
         );
         Fail(2)
     })

@@ -176,11 +176,7 @@ impl Envelope {
         }
         if !o.stable {
             self.unstable += 1;
-            if self
-                .first_unstable
-                .as_ref()
-                .map_or(true, |u| o.seed < u.seed)
-            {
+            if self.first_unstable.as_ref().is_none_or(|u| o.seed < u.seed) {
                 self.first_unstable = Some(o.clone());
             }
             return;
@@ -209,11 +205,7 @@ impl Envelope {
         self.unstable_ref += other.unstable_ref;
         self.disagree += other.disagree;
         if let Some(u) = other.first_unstable {
-            if self
-                .first_unstable
-                .as_ref()
-                .map_or(true, |s| u.seed < s.seed)
-            {
+            if self.first_unstable.as_ref().is_none_or(|s| u.seed < s.seed) {
                 self.first_unstable = Some(u);
             }
         }

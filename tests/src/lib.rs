@@ -79,7 +79,7 @@ pub fn sig(plan: &Plan, name: &str) -> SigId {
 /// The compiled plan of a seed spec for a built-in target.
 pub fn plan_for(stem: &str, target: &str) -> Plan {
     let src = std::fs::read_to_string(specs_dir().join(format!("{stem}.qloop"))).unwrap();
-    let t = Target::by_name(target).unwrap_or_else(|| panic!("no target {target}"));
+    let t = qloop::targets::by_name(target).unwrap_or_else(|| panic!("no target {target}"));
     qloop::compile_str(&src, &t).unwrap_or_else(|e| panic!("{stem}: {e}"))
 }
 

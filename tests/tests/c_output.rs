@@ -26,7 +26,7 @@ use std::process::{Command, Stdio};
 /// the object-code checks and `qloop bench` use), as (name, compiler, flags). The host's C
 /// is also built with `-Wconversion`.
 fn targets() -> Vec<(String, String, Vec<String>)> {
-    qloop::Target::builtin()
+    qloop::targets::builtin()
         .into_iter()
         .filter_map(|t| {
             let cc = t.toolchain.cc.clone()?;

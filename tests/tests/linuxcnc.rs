@@ -317,7 +317,7 @@ fn the_checks_see_what_they_look_for() {
 
 /// Compiles a spec for `host` and generates its component; the error message if refused.
 fn refusal(src: &str) -> String {
-    let plan = qloop::compile_str(src, &qloop::Target::by_name("host").unwrap())
+    let plan = qloop::compile_str(src, &qloop::targets::by_name("host").unwrap())
         .unwrap_or_else(|e| panic!("{e}\n{src}"));
     match qloop::gen_linuxcnc(&plan) {
         Ok(_) => panic!("accepted:\n{src}"),

@@ -151,7 +151,7 @@ fn compile_c(cc: &Path, flags: &[String], c: &Path, o: &Path) {
 }
 
 fn check_c(target: &str) {
-    let t = qloop::Target::by_name(target).unwrap();
+    let t = qloop::targets::by_name(target).unwrap();
     let (Some(cc), Some(od)) = (
         t.toolchain.cc.as_deref().and_then(tool),
         t.toolchain.objdump.as_deref().and_then(tool),

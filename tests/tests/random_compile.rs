@@ -218,7 +218,7 @@ fn first_difference(plans: &[Plan], input: &str, got: &str, want: &str) -> Optio
 /// each random spec planned for the default target and for the ATmega328P.
 fn plans(seed: u64) -> (Vec<Plan>, Vec<String>) {
     let t = Target::default();
-    let avr = Target::by_name("atmega328p").expect("built-in target");
+    let avr = qloop::targets::by_name("atmega328p").expect("built-in target");
     let mut plans = Vec::new();
     let mut srcs = Vec::new();
     for (_, src) in all_specs().into_iter().chain(

@@ -13,7 +13,7 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     for target in ["rv32i", "atmega328p"] {
-        let Some(t) = qloop::Target::by_name(target) else {
+        let Some(t) = qloop::targets::by_name(target) else {
             return;
         };
         let Ok(plan) = qloop::compile_str(src, &t) else {

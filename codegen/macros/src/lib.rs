@@ -1,6 +1,6 @@
 //! `controller!`: compiles a qloop spec into a fixed-point controller module at build time.
 //!
-//! A thin shell over [`qloop::expand_macro`]; the macro and the `qloop gen` CLI share one
+//! A thin shell over [`qloop_core::expand_macro`] (the compiler core, without the prover); the macro and the `qloop gen` CLI share one
 //! parser and one emitter, so the expansion is exactly what `qloop gen --lang rust` writes.
 //!
 //! ```ignore
@@ -15,5 +15,5 @@ use proc_macro::TokenStream;
 #[proc_macro]
 pub fn controller(input: TokenStream) -> TokenStream {
     let dir = std::env::var("CARGO_MANIFEST_DIR").ok();
-    qloop::expand_macro(input.into(), dir.as_deref()).into()
+    qloop_core::expand_macro(input.into(), dir.as_deref()).into()
 }

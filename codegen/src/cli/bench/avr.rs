@@ -10,9 +10,9 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-const CYCLES_C: &str = include_str!("../../../../targets/avr/cycles.c");
+const CYCLES_C: &str = include_str!("../../../targets/avr/cycles.c");
 pub(super) const SIM_PROTOCOL_H: &str =
-    include_str!("../../../../targets/avr/firmware/sim_protocol.h");
+    include_str!("../../../targets/avr/firmware/sim_protocol.h");
 
 /// `bench_io.h` on the AVR: simavr markers and value reports (`sim_protocol.h`).
 pub(super) const IO_H: &str = r#"/* bench_io.h -- qloop bench on the AVR in simavr (targets/avr/cycles.c): markers and

@@ -8,9 +8,9 @@ use qloop::qformat::{pow2, IntTy};
 use qloop::Plan;
 use std::fmt::Write as _;
 
-const DIV_H: &str = include_str!("../../../../targets/bench/koren_masory_1981_div.h");
-const DIV_FLOAT_C: &str = include_str!("../../../../targets/bench/koren_masory_1981_div_float.c");
-const DIV_INT32_C: &str = include_str!("../../../../targets/bench/koren_masory_1981_div_int32.c");
+const DIV_H: &str = include_str!("../../../targets/bench/koren_masory_1981_div.h");
+const DIV_FLOAT_C: &str = include_str!("../../../targets/bench/koren_masory_1981_div_float.c");
+const DIV_INT32_C: &str = include_str!("../../../targets/bench/koren_masory_1981_div_int32.c");
 
 /// How an output value comes back from the firmware.
 #[derive(Clone, Copy, Debug)]

@@ -6,7 +6,7 @@
 //! generators' ranges), so a harness is a proof over every value; under `cargo test` it runs
 //! [`CASES`] random cases. They call the generated controller itself (`set_states`, `step`,
 //! `states`), so what they check is the code that ships, and they mirror the SMT obligations of
-//! [`crate::prove::obligations`]:
+//! the `qloop` crate's `prove::obligations`:
 //!
 //! * `ranges_and_overflow`: any input bits and any states inside their bounds: one step
 //!   overflows nothing (Kani's arithmetic checks; debug-build overflow panics under `cargo
@@ -24,7 +24,7 @@
 //! assumptions).
 //!
 //! Property and invariant conditions are evaluated exactly, with the semantics of
-//! [`crate::prove::replay`] but in `i128`: a signal is `raw · 2^-frac`, binary points are
+//! `qloop`'s `prove::replay` but in `i128`: a signal is `raw · 2^-frac`, binary points are
 //! aligned by left shifts, products multiply raw values and add fractions, and constants are
 //! their exact binary values `m · 2^-f` ([`exact_binary`]). The magnitude of every
 //! intermediate is bounded here, from the raw ranges; a harness whose bound would exceed

@@ -4,8 +4,10 @@
 //! A target gives its native word width, its multiplier (none, 8×8, 16×16, 32×32→32,
 //! 32×32→64 or 64×64→64, with its cycles), whether it has a barrel shifter (or pays per bit),
 //! the cost of add, load/store and a library call, and the widths of C's `int` and `long`.
-//! The built-in targets are the files of the workspace's `targets/` folder, embedded at
-//! build time; `--target FILE.toml` loads another one.
+//! The built-in targets are the files of the workspace's `targets/` folder, which the `qloop`
+//! crate embeds and reads (its `targets` module, with the `serde` feature of this crate);
+//! `--target FILE.toml` loads another one. This crate knows one target by heart, the default
+//! (`rv32i`), for the `controller!` macro; a `qloop` test checks it equals `targets/rv32i.toml`.
 //!
 //! The model counts cycles of straight-line code, the way a compiler for the target would
 //! emit it; it only has to rank the two ways to multiply by a constant, and the object-code
@@ -13,13 +15,12 @@
 //! Choices never change results: a shift-add network and a multiply compute the same exact
 //! product, so every target's code is bit-for-bit the same function.
 
-use serde::Deserialize;
-
 use super::shift_add::{Operand, ShiftAddPlan};
 
 /// A target's word sizes and operation costs (cycles).
-#[derive(Clone, Debug, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct Target {
     /// Name used on the command line.
     pub name: String,
@@ -36,17 +37,18 @@ pub struct Target {
     /// C type widths.
     pub c: CTypes,
     /// Compilers, disassembler and simulator for this target (optional).
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub toolchain: Toolchain,
     /// Use the multiplier for every constant that is not a power of two, whatever the costs
     /// (the `plain_mul` baseline of `qloop bench`); not settable from a target file.
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub force_multiply: bool,
 }
 
 /// The multiplier: its operand/result shape and cycles per instruction.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct Multiplier {
     /// Shape of the multiply instruction.
     pub kind: MulKind,
@@ -55,25 +57,26 @@ pub struct Multiplier {
 }
 
 /// Shape of a target's multiply instruction.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Deserialize))]
 pub enum MulKind {
     /// No multiplier: products are a library shift-and-add loop.
-    #[serde(rename = "none")]
+    #[cfg_attr(feature = "serde", serde(rename = "none"))]
     None,
     /// 8×8→16 (AVR `MUL`).
-    #[serde(rename = "8x8")]
+    #[cfg_attr(feature = "serde", serde(rename = "8x8"))]
     M8x8,
     /// 16×16→32.
-    #[serde(rename = "16x16")]
+    #[cfg_attr(feature = "serde", serde(rename = "16x16"))]
     M16x16,
     /// 32×32→32, low half only (ARMv6-M `MULS`).
-    #[serde(rename = "32x32->32")]
+    #[cfg_attr(feature = "serde", serde(rename = "32x32->32"))]
     M32x32To32,
     /// 32×32→64 (ARMv7-M `SMULL`, RISC-V `MUL` + `MULH`).
-    #[serde(rename = "32x32->64")]
+    #[cfg_attr(feature = "serde", serde(rename = "32x32->64"))]
     M32x32To64,
     /// 64×64→64 (64-bit hosts).
-    #[serde(rename = "64x64->64")]
+    #[cfg_attr(feature = "serde", serde(rename = "64x64->64"))]
     M64x64To64,
 }
 
@@ -109,8 +112,9 @@ impl MulKind {
 
 /// Constant shifts: a barrel shifter (any distance in one instruction per word) or a per-bit
 /// cost (AVR's one-bit `LSL`/`ROL`/`ASR`/`ROR`).
-#[derive(Clone, Debug, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct Shifter {
     /// Any shift distance in one instruction.
     pub barrel: bool,
@@ -119,13 +123,14 @@ pub struct Shifter {
     /// No barrel shifter: extra cycles per bit position when the compiler shifts in a loop
     /// (avr-gcc at `-Os` shifts a multi-byte value by more than one bit in a loop, with a
     /// `DEC` and a taken `BRNE` per bit, plus an `LDI` of the counter). 0: unrolled.
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub loop_cycles: u32,
 }
 
 /// Cycle costs of add, load/store and a library call.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct Costs {
     /// One add/subtract/compare of a native word.
     pub add: u32,
@@ -138,19 +143,20 @@ pub struct Costs {
     /// Adds and shifts of values at least this wide are library calls too (avr-gcc 5.4:
     /// `__adddi3`, `__ashldi3`, `__ashrdi3` for 64-bit values; a shift is then a loop over
     /// whole bytes and one over bits, each step touching every byte). 0: never.
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub libcall_bits: u32,
     /// Cycles per native word of the temporary each shift-add step keeps live. On AVR, GCC
     /// gives a network's shifted terms call-saved registers, which `step` must save and
     /// restore (`PUSH` + `POP`, 4 cycles per byte); a multiply routine works in fixed
     /// call-clobbered registers instead. 0 where registers are plentiful.
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub temp: u32,
 }
 
 /// Widths of C's integer types on the target.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct CTypes {
     /// Bits of `int` (16 on AVR): C computes in at least this width, so qloop's intermediates
     /// start there too.
@@ -160,13 +166,14 @@ pub struct CTypes {
 }
 
 /// Tools for building and running code for the target.
-#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct Toolchain {
     /// C compiler.
     pub cc: Option<String>,
     /// Its flags.
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub cflags: Vec<String>,
     /// Disassembler for the object-code checks.
     pub objdump: Option<String>,
@@ -178,32 +185,10 @@ pub struct Toolchain {
     pub qemu_machine: Option<String>,
 }
 
-/// The built-in target files, embedded from the workspace's `targets/` folder.
-const BUILTIN: [(&str, &str); 7] = [
-    ("rv32i", include_str!("../../../targets/rv32i.toml")),
-    ("rv32imc", include_str!("../../../targets/rv32imc.toml")),
-    (
-        "atmega328p",
-        include_str!("../../../targets/atmega328p.toml"),
-    ),
-    ("cortex-m0", include_str!("../../../targets/cortex-m0.toml")),
-    (
-        "cortex-m0-slowmul",
-        include_str!("../../../targets/cortex-m0-slowmul.toml"),
-    ),
-    ("cortex-m4", include_str!("../../../targets/cortex-m4.toml")),
-    ("host", include_str!("../../../targets/host.toml")),
-];
-
 impl Target {
-    /// Parses a target description (the format of `targets/*.toml`), checking its values.
-    pub fn from_toml(text: &str) -> Result<Target, String> {
-        let t: Target = toml::from_str(text).map_err(|e| e.to_string())?;
-        t.validate()?;
-        Ok(t)
-    }
-
-    fn validate(&self) -> Result<(), String> {
+    /// Checks a target description's values (what a target file may not say: word widths
+    /// other than 8/16/32/64, a multiplier with cycles but no kind, free shifts or adds).
+    pub fn validate(&self) -> Result<(), String> {
         let bad = |what: &str| Err(format!("target `{}`: {what}", self.name));
         if !matches!(self.word_bits, 8 | 16 | 32 | 64) {
             return bad("`word_bits` must be 8, 16, 32 or 64");
@@ -220,18 +205,6 @@ impl Target {
         Ok(())
     }
 
-    /// All built-in targets, the default first.
-    pub fn builtin() -> Vec<Target> {
-        BUILTIN
-            .iter()
-            .map(|(name, text)| {
-                Target::from_toml(text).unwrap_or_else(|e| {
-                    unreachable!("built-in target {name} is checked by tests: {e}")
-                })
-            })
-            .collect()
-    }
-
     /// This target with every non-power-of-two constant multiply on the multiplier: the
     /// "plain `*`" baseline that shift-add is measured against.
     pub fn always_multiply(&self) -> Target {
@@ -239,19 +212,6 @@ impl Target {
             force_multiply: true,
             ..self.clone()
         }
-    }
-
-    /// Names of the built-in targets.
-    pub fn builtin_names() -> Vec<&'static str> {
-        BUILTIN.iter().map(|(n, _)| *n).collect()
-    }
-
-    /// Looks a built-in target up by name.
-    pub fn by_name(name: &str) -> Option<Target> {
-        BUILTIN
-            .iter()
-            .find(|(n, _)| *n == name)
-            .and_then(|(_, text)| Target::from_toml(text).ok())
     }
 
     /// The narrowest width intermediates get: C's `int`, since C promotes narrower operands to
@@ -434,131 +394,44 @@ pub struct SplitShift {
 
 impl Default for Target {
     /// `rv32i`: a 32-bit core without a multiplier, so every constant gain becomes shift-add.
+    /// Written out here (the core reads no target files); `qloop`'s
+    /// `targets::tests::the_default_target_is_rv32i_toml` checks it equals `targets/rv32i.toml`.
     fn default() -> Self {
-        Target::from_toml(BUILTIN[0].1).expect("the built-in targets parse (tested)")
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::lower::shift_add;
-
-    /// One decision for the cost model and the C emitter: a shift by `8q + r` is `q` byte
-    /// moves and `r` bits, or, with room and `r > 4`, `q + 1` moves and `8 − r` bits back,
-    /// unless that move would be the value's whole width.
-    #[test]
-    fn shifts_split_alike_for_the_model_and_the_emitter() {
-        let avr = Target::by_name("atmega328p").unwrap();
-        let s = |bits, k, room| avr.split_shift(bits, k, room);
-        let sp = |words, bits, up| Some(SplitShift { words, bits, up });
-        assert_eq!(s(32, 14, true), sp(2, 2, true));
-        assert_eq!(s(32, 14, false), sp(1, 6, false));
-        assert_eq!(s(32, 11, true), sp(1, 3, false)); // r = 3: not worth rounding up
-        assert_eq!(s(32, 29, true), sp(3, 5, false)); // 4 moves would be the whole int32
-        assert_eq!(s(32, 16, true), None); // whole bytes
-        assert_eq!(s(32, 5, false), None); // under a byte, no room: one plain shift
-        assert_eq!(s(8, 5, true), None); // single-word value
-        assert!(Target::by_name("cortex-m0")
-            .unwrap()
-            .split_shift(32, 14, true)
-            .is_none());
-        // The model prices what the emitter writes: with room, 14 bits cost 2 moves' worth
-        // plus 2 bits instead of 1 move plus 6.
-        assert!(avr.shift_cost(32, 14, true) < avr.shift_cost(32, 14, false));
-    }
-
-    #[test]
-    fn every_builtin_target_parses_and_is_named_after_its_file() {
-        for (name, text) in BUILTIN {
-            let t = Target::from_toml(text).unwrap_or_else(|e| panic!("{name}: {e}"));
-            assert_eq!(t.name, name);
+        let s = |v: &[&str]| v.iter().map(|s| s.to_string()).collect();
+        Target {
+            name: "rv32i".into(),
+            about: "RV32I (no M extension): multiply is a __mulsi3 library loop, no divider".into(),
+            word_bits: 32,
+            multiplier: Multiplier {
+                kind: MulKind::None,
+                cycles: 0,
+            },
+            shifter: Shifter {
+                barrel: true,
+                cycles: 1,
+                loop_cycles: 0,
+            },
+            costs: Costs {
+                add: 1,
+                load: 2,
+                store: 1,
+                call: 4,
+                libcall_bits: 0,
+                temp: 0,
+            },
+            c: CTypes {
+                int_bits: 32,
+                long_bits: 32,
+            },
+            toolchain: Toolchain {
+                cc: Some("riscv64-unknown-elf-gcc".into()),
+                cflags: s(&["-march=rv32i", "-mabi=ilp32", "-Os", "-ffreestanding"]),
+                objdump: Some("riscv64-unknown-elf-objdump".into()),
+                rust_target: Some("riscv32i-unknown-none-elf".into()),
+                simulator: None,
+                qemu_machine: Some("virt".into()),
+            },
+            force_multiply: false,
         }
-        assert_eq!(Target::default().name, "rv32i");
-    }
-
-    #[test]
-    fn bad_target_files_are_refused_with_the_field() {
-        let good = BUILTIN[2].1;
-        let e = Target::from_toml(&good.replace("word_bits = 8", "word_bits = 12")).unwrap_err();
-        assert!(e.contains("word_bits"), "{e}");
-        let e = Target::from_toml(&good.replace("kind = \"8x8\"", "kind = \"9x9\"")).unwrap_err();
-        assert!(e.contains("9x9"), "{e}");
-        let e = Target::from_toml(&format!("{good}\nbogus = 1\n")).unwrap_err();
-        assert!(e.contains("bogus"), "{e}");
-    }
-
-    /// The model's multiply costs against the instruction sequences compilers emit (counted
-    /// by hand from avr-gcc 7.3 `-Os` output and the ARM/RISC-V manuals).
-    #[test]
-    fn multiply_costs_follow_the_instruction_sequences() {
-        let t = |n: &str| Target::by_name(n).unwrap();
-        // AVR 16×16→16: three MULs and two 8-bit adds (≈ 10 cycles with moves).
-        assert_eq!(t("atmega328p").mul_cost(16), 3 * (2 + 2));
-        // AVR 32×32→32 is __mulsi3: 10 partial products and a call.
-        assert!(t("atmega328p").mul_cost(32) > 40);
-        // One MULS on Cortex-M0; UMULL + two MLA on M4 for a 64-bit product.
-        assert_eq!(t("cortex-m0").mul_cost(32), 1);
-        assert_eq!(t("cortex-m4").mul_cost(64), 3 * (1 + 2));
-        // __aeabi_lmul on M0: 16-bit limbs, ten partial products and a call.
-        assert!(t("cortex-m0").mul_cost(64) > 30);
-        // __mulsi3 on RV32I: a 32-iteration loop.
-        assert!(t("rv32i").mul_cost(32) > 100);
-    }
-
-    #[test]
-    fn shift_costs_pay_per_bit_without_a_barrel_shifter() {
-        let avr = Target::by_name("atmega328p").unwrap();
-        // 3 bits: a loop of 3 × (4 bytes + DEC + BRNE) plus the counter's LDI (avr-gcc -Os).
-        assert_eq!(avr.shift_cost(32, 3, false), 3 * (4 + 3) + 1);
-        assert_eq!(avr.shift_cost(32, 1, false), 4); // one bit: unrolled
-        assert_eq!(avr.shift_cost(32, 17, false), 4 + 4); // two bytes move, then one bit
-                                                          // 64-bit: __ashldi3, a loop per byte and per bit over 8 bytes.
-        assert_eq!(avr.shift_cost(64, 17, false), 8 + (8 + 3) * (2 + 1));
-        assert_eq!(avr.add_cost(64), 8 + 8); // __adddi3
-        assert_eq!(avr.add_cost(32), 4);
-        assert_eq!(avr.shift_cost(32, 8, false), 4); // byte moves
-        assert_eq!(avr.shift_cost(16, 9, false), 2 + 2);
-        let m0 = Target::by_name("cortex-m0").unwrap();
-        assert_eq!(m0.shift_cost(32, 17, false), 1);
-        assert_eq!(m0.shift_cost(64, 17, false), 4);
-    }
-
-    #[test]
-    fn a_widened_narrow_operand_needs_fewer_partial_products() {
-        let avr = Target::by_name("atmega328p").unwrap();
-        // 16×16→32 (__mulhisi3): 4 MULs, each with two byte adds, and the call.
-        assert_eq!(avr.widening_mul_cost(32, 16), 4 * (2 + 2) + 8);
-        // 32×32→32 (__mulsi3): the low 10 partial products of 4×4 limbs.
-        assert_eq!(avr.mul_cost(32), 10 * (2 + 2) + 8);
-        let m4 = Target::by_name("cortex-m4").unwrap();
-        assert_eq!(m4.widening_mul_cost(32, 16), m4.mul_cost(32));
-    }
-
-    #[test]
-    fn the_choice_depends_on_the_target() {
-        // x · 0.9375 = (x << 4) − x, one adder: a 32-bit value.
-        let p = shift_add::best(15);
-        let cost = |n: &str| {
-            let t = Target::by_name(n).unwrap();
-            (t.shift_add_cost(&p, 32, &|_, _| false), t.mul_cost(32))
-        };
-        // On AVR a 4-bit shift of 4 bytes is a loop, and the term costs saved registers: a
-        // full 32-bit x · 15 goes to __mulsi3, but x · 257 = (x << 8) + x (a byte move) stays
-        // shift-add.
-        let (sa, mul) = cost("atmega328p");
-        assert!(sa > mul, "AVR x·15: shift-add {sa} vs __mulsi3 {mul}");
-        let avr = Target::by_name("atmega328p").unwrap();
-        let (sa, mul) = (
-            avr.shift_add_cost(&shift_add::best(257), 32, &|_, _| false),
-            avr.mul_cost(32),
-        );
-        assert!(sa < mul, "AVR x·257: shift-add {sa} vs __mulsi3 {mul}");
-        let (sa, mul) = cost("cortex-m0");
-        assert!(sa > mul, "M0: shift-add {sa} vs MULS {mul}");
-        let (sa, mul) = cost("cortex-m0-slowmul");
-        assert!(sa < mul, "slow M0: shift-add {sa} vs MULS {mul}");
-        let (sa, mul) = cost("rv32i");
-        assert!(sa < mul, "RV32I: shift-add {sa} vs __mulsi3 {mul}");
     }
 }

@@ -31,28 +31,90 @@ fn directed(v: f64, up: bool, fmt: impl Fn(f64) -> String, unit: impl Fn(f64) ->
 
 /// Compares the decimal `s` (as printed: `-1.563e-4`, `0.05`) with the exact value of `v`,
 /// exactly (a decimal and a binary fraction rarely coincide, and parsing `s` back to f64 would
-/// round it).
-fn decimal_cmp(s: &str, v: f64) -> Option<Ordering> {
-    use num_bigint::BigInt;
-    let (mant, exp) = match s.find(['e', 'E']) {
-        Some(i) => (&s[..i], s[i + 1..].parse::<i32>().ok()?),
-        None => (s, 0),
-    };
-    let neg = mant.starts_with('-');
-    let mant = mant.trim_start_matches(['-', '+']);
-    let (int, frac) = mant.split_once('.').unwrap_or((mant, ""));
-    let mut d: BigInt = format!("{int}{frac}").parse().ok()?;
-    if neg {
-        d = -d;
+/// round it). `None` if `s` is not a decimal or `v` is not finite.
+///
+/// Every finite f64 is a finite decimal of at most 767 significant digits, and Rust's `{:.Ne}`
+/// formatting prints the exact digits (not a shortest round trip), so `v` printed with 800
+/// digits after the point is its exact value; the two decimals are then compared digit by
+/// digit. (`qloop`'s tests check this against big-integer arithmetic.)
+pub fn decimal_cmp(s: &str, v: f64) -> Option<Ordering> {
+    if !v.is_finite() {
+        return None;
     }
-    let k = exp - frac.len() as i32; // s = d · 10^k
-    let (m, e) = crate::qformat::significand_exponent(v);
-    let m = BigInt::from(m);
-    let pow = |b: u32, n: i32| BigInt::from(b).pow(n.max(0) as u32);
-    // d·10^k ? m·2^e  ⟺  d·10^k⁺·2^e⁻ ? m·2^e⁺·10^k⁻
-    let lhs = d * pow(10, k) * pow(2, -e);
-    let rhs = m * pow(2, e) * pow(10, -k);
-    Some(lhs.cmp(&rhs))
+    let a = Decimal::parse(s)?;
+    let b = Decimal::parse(&format!("{v:.800e}"))?;
+    Some(a.cmp(&b))
+}
+
+/// A decimal `±0.d₁d₂…dₙ · 10^exp` with `d₁ ≠ 0` and `dₙ ≠ 0`; zero has no digits.
+#[derive(PartialEq, Eq)]
+struct Decimal {
+    neg: bool,
+    digits: Vec<u8>,
+    exp: i64,
+}
+
+impl Decimal {
+    /// Reads `[-+]int[.frac][e[-+]exp]`.
+    fn parse(s: &str) -> Option<Decimal> {
+        let (mant, e) = match s.find(['e', 'E']) {
+            Some(i) => (&s[..i], s[i + 1..].parse::<i64>().ok()?),
+            None => (s, 0),
+        };
+        let neg = mant.starts_with('-');
+        let mant = mant.strip_prefix(['-', '+']).unwrap_or(mant);
+        let (int, frac) = mant.split_once('.').unwrap_or((mant, ""));
+        if int.is_empty() && frac.is_empty() {
+            return None;
+        }
+        let all: Vec<u8> = int.bytes().chain(frac.bytes()).collect();
+        if !all.iter().all(u8::is_ascii_digit) {
+            return None;
+        }
+        // value = 0.(int frac) · 10^(e + len(int)); drop leading zeros (each lowers the
+        // exponent) and trailing zeros.
+        let lead = all.iter().take_while(|&&d| d == b'0').count();
+        let mut digits = all[lead..].to_vec();
+        while digits.last() == Some(&b'0') {
+            digits.pop();
+        }
+        let exp = e.checked_add(int.len() as i64)?.checked_sub(lead as i64)?;
+        let neg = neg && !digits.is_empty();
+        let exp = if digits.is_empty() { 0 } else { exp };
+        Some(Decimal { neg, digits, exp })
+    }
+
+    /// Compares magnitudes.
+    fn cmp_abs(&self, o: &Decimal) -> Ordering {
+        match (self.digits.is_empty(), o.digits.is_empty()) {
+            (true, true) => Ordering::Equal,
+            (true, false) => Ordering::Less,
+            (false, true) => Ordering::Greater,
+            // Same number of leading zeros stripped: the larger exponent is the larger value;
+            // then the digits, where a prefix is the smaller (no trailing zeros).
+            _ => self
+                .exp
+                .cmp(&o.exp)
+                .then_with(|| self.digits.cmp(&o.digits)),
+        }
+    }
+}
+
+impl PartialOrd for Decimal {
+    fn partial_cmp(&self, o: &Decimal) -> Option<Ordering> {
+        Some(self.cmp(o))
+    }
+}
+
+impl Ord for Decimal {
+    fn cmp(&self, o: &Decimal) -> Ordering {
+        match (self.neg, o.neg) {
+            (false, true) => Ordering::Greater,
+            (true, false) => Ordering::Less,
+            (false, false) => self.cmp_abs(o),
+            (true, true) => o.cmp_abs(self),
+        }
+    }
 }
 
 /// One unit of the last digit of `{:.Ne}` formatting at `v`'s magnitude.

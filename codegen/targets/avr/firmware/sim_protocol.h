@@ -1,0 +1,1 @@
+../../../../targets/avr/firmware/sim_protocol.h

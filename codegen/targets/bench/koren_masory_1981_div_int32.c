@@ -1,0 +1,1 @@
+../../../targets/bench/koren_masory_1981_div_int32.c
