@@ -1,0 +1,44 @@
+//! The `initial` harness: `Controller::new()` is inside the state bounds and satisfies every
+//! invariant (the initial obligations of `qloop prove`).
+
+use super::invariant::Invariants;
+use super::show::{show_cond, spaced};
+use super::sigs::Sigs;
+use crate::lower::Plan;
+use proc_macro2::TokenStream;
+use quote::quote;
+
+/// The harness.
+pub(super) fn harness(plan: &Plan, sigs: &Sigs, invs: &Invariants) -> TokenStream {
+    let prog = &plan.prog;
+    let st_names = &sigs.st_names;
+    let init_doc = format!(
+        "Initial state: `{}::Controller::new()` is inside the state bounds and satisfies every \
+         invariant.",
+        prog.name
+    );
+    let init_invs = prog.invariants.iter().zip(&invs.ok).filter_map(|(inv, f)| {
+        let f = f.as_ref()?;
+        let msg = format!(
+            "invariant `{}` (`{}`) is false initially: {{:?}}",
+            inv.name,
+            show_cond(plan, &[], &inv.cond)
+        );
+        Some(quote! {
+            let holds = #f(&pre);
+            assert!(holds, #msg, pre);
+        })
+    });
+    let init_doc_s = spaced(&init_doc);
+    quote! {
+        #[doc = #init_doc_s]
+        #[test]
+        #[cfg_attr(kani, kani::proof)]
+        fn initial() {
+            let s = Controller::new().states();
+            let pre = states_raw(#(s.#st_names.to_bits()),*);
+            assert_in_bounds(&pre, "initially");
+            #(#init_invs)*
+        }
+    }
+}

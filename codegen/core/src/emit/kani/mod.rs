@@ -1,0 +1,111 @@
+//! Emits proof harnesses for the fixed-point module: Kani proofs that also run as randomized
+//! property tests.
+//!
+//! The harnesses use [bolero](https://docs.rs/bolero): under `cargo kani --tests` each
+//! `bolero::check!()` draws its values with `kani::any()` (and `kani::assume` for the
+//! generators' ranges), so a harness is a proof over every value; under `cargo test` it runs
+//! [`CASES`] random cases. They call the generated controller itself (`set_states`, `step`,
+//! `states`), so what they check is the code that ships, and they mirror the SMT obligations of
+//! the `qloop` crate's `prove::obligations`:
+//!
+//! * `ranges_and_overflow`: any input bits and any states inside their bounds: one step
+//!   overflows nothing (Kani's arithmetic checks; debug-build overflow panics under `cargo
+//!   test`) and leaves every state inside its bounds.
+//! * `initial`: the initial state is inside the bounds and satisfies every invariant.
+//! * `invariant_<name>`: one step from any state inside the bounds satisfying the invariants,
+//!   with any input bits, keeps the invariant.
+//! * `property_<name>`: one step from inputs inside their declared ranges, states inside the
+//!   bounds and invariants, and free parameters on their grid ([`param_grids`]): the `assume`s
+//!   imply every `ensure`.
+//!
+//! Assumptions are early `return`s. Under Kani a path that returns before an assertion cannot
+//! violate it, so an early return restricts the proof exactly like `kani::assume`; under
+//! `cargo test` the case is skipped (property harnesses count how many cases got past their
+//! assumptions).
+//!
+//! Property and invariant conditions are evaluated exactly, with the semantics of
+//! `qloop`'s `prove::replay` but in `i128`: a signal is `raw · 2^-frac`, binary points are
+//! aligned by left shifts, products multiply raw values and add fractions, and constants are
+//! their exact binary values `m · 2^-f` ([`exact_binary`]). The magnitude of every
+//! intermediate is bounded here, from the raw ranges; a harness whose bound would exceed
+//! 2^126 is not emitted, and a documented constant says why.
+//!
+//! One module per part: [`sigs`] (the signals, read once), [`scaffold`] (the shared items),
+//! one per harness kind ([`overflow`], [`initial`], [`invariant`], [`property`]), [`exact`]
+//! (the exact `i128` evaluator), [`docs`] and [`show`] (doc text and literals).
+
+mod docs;
+mod exact;
+mod initial;
+mod invariant;
+mod overflow;
+mod property;
+mod scaffold;
+mod show;
+mod sigs;
+
+pub use show::{show_cond, show_expr};
+
+use crate::lower::Plan;
+use proc_macro2::{Literal, TokenStream};
+use quote::{format_ident, quote};
+
+/// Random cases each harness runs under `cargo test` (bolero's own default is "as many as fit
+/// in one second", which varies with the machine and the build). `BOLERO_RANDOM_ITERATIONS`
+/// overrides it; under Kani it is ignored.
+pub const CASES: usize = 100_000;
+
+/// Largest magnitude, as a power of two, an exactly evaluated intermediate may reach.
+pub const LIMIT_BITS: u32 = 126;
+
+/// Harnesses not emitted, with the reason: `(harness name, why)`.
+type Skipped = Vec<(String, String)>;
+
+/// The harness module for `plan`, named `<spec>_proofs`, to be placed next to the fixed-point
+/// module (it refers to `super::<spec>`).
+pub fn module(plan: &Plan) -> TokenStream {
+    let prog = &plan.prog;
+    let modname = format_ident!("{}_proofs", prog.name);
+    let target = format_ident!("{}", prog.name);
+    let sigs = sigs::Sigs::new(plan);
+    let invs = invariant::Invariants::new(plan);
+    let mut skipped = Skipped::new();
+    let ranges = overflow::harness(plan, &sigs);
+    let initial = initial::harness(plan, &sigs, &invs);
+    let inv_harnesses = invariant::harnesses(plan, &sigs, &invs, &mut skipped);
+    let prop_harnesses = property::harnesses(plan, &sigs, &invs, &mut skipped);
+    let shared = scaffold::items(&sigs, &invs);
+
+    let skipped_items = skipped.iter().map(|(h, why)| {
+        let c = format_ident!("SKIPPED_{}", h.to_uppercase());
+        let d = show::spaced(&format!("Harness `{h}` is not emitted: {why}."));
+        quote! { #[doc = #d] pub const #c: &str = #why; }
+    });
+
+    let doc = docs::module_doc(plan, &skipped);
+    let allows = super::allowed_lints();
+    let cases = Literal::usize_unsuffixed(CASES);
+    let doc_s = show::spaced(&doc);
+    quote! {
+        #[doc = #doc_s]
+        #[cfg(test)]
+        #[allow(#allows, dead_code, unused_variables)]
+        pub mod #modname {
+            extern crate std;
+
+            use super::#target::{Controller, Inputs, States};
+
+            /// Random cases per harness under `cargo test` (`BOLERO_RANDOM_ITERATIONS`
+            /// overrides it); Kani ignores it and covers every value.
+            const CASES: usize = #cases;
+
+            #shared
+
+            #ranges
+            #initial
+            #(#inv_harnesses)*
+            #(#prop_harnesses)*
+            #(#skipped_items)*
+        }
+    }
+}

@@ -1,0 +1,106 @@
+//! The controller's signals as the harnesses see them: names, raw storage types, `fixed` types
+//! and raw bounds, read once from the plan.
+
+use super::super::rust::{fixed_ty, int_ty};
+use super::show::int;
+use crate::ir::{SigId, SigKind};
+use crate::lower::Plan;
+use proc_macro2::{Ident, TokenStream};
+use quote::{format_ident, quote};
+
+/// Inputs, states and outputs in declaration order, with what every harness needs of them.
+pub(super) struct Sigs {
+    /// State ids.
+    pub states: Vec<SigId>,
+    /// Field names.
+    pub in_names: Vec<Ident>,
+    pub st_names: Vec<Ident>,
+    pub out_names: Vec<Ident>,
+    /// Argument names of the harnesses' `step` (`in_x`, `st_x`).
+    pub in_args: Vec<Ident>,
+    pub st_args: Vec<Ident>,
+    /// Raw storage types.
+    pub in_tys: Vec<Ident>,
+    pub st_tys: Vec<Ident>,
+    /// `fixed` types of the controller's API.
+    pub in_fixed: Vec<TokenStream>,
+    pub st_fixed: Vec<TokenStream>,
+    /// Raw bounds of each state and declared (inward-quantised) range of each input.
+    pub st_bounds: Vec<(i128, i128)>,
+    pub in_ranges: Vec<(i128, i128)>,
+}
+
+impl Sigs {
+    /// Reads the signals of `plan`.
+    pub fn new(plan: &Plan) -> Sigs {
+        let prog = &plan.prog;
+        let ids = |k: SigKind| prog.ids_of(k).collect::<Vec<_>>();
+        let (inputs, states, outputs) = (
+            ids(SigKind::Input),
+            ids(SigKind::State),
+            ids(SigKind::Output),
+        );
+        let name = |id: &SigId| format_ident!("{}", prog.sig(*id).name);
+        let arg = |pre: &str, id: &SigId| format_ident!("{pre}_{}", prog.sig(*id).name);
+        let storage = |id: &SigId| int_ty(plan.format(*id).ty);
+        let fixed = |id: &SigId| fixed_ty(plan.format(*id));
+        Sigs {
+            in_names: inputs.iter().map(name).collect(),
+            st_names: states.iter().map(name).collect(),
+            out_names: outputs.iter().map(name).collect(),
+            in_args: inputs.iter().map(|id| arg("in", id)).collect(),
+            st_args: states.iter().map(|id| arg("st", id)).collect(),
+            in_tys: inputs.iter().map(storage).collect(),
+            st_tys: states.iter().map(storage).collect(),
+            in_fixed: inputs.iter().map(fixed).collect(),
+            st_fixed: states.iter().map(fixed).collect(),
+            st_bounds: states.iter().map(|id| plan.bounds(*id)).collect(),
+            in_ranges: inputs.iter().map(|id| plan.bounds(*id)).collect(),
+            states,
+        }
+    }
+
+    /// Generator fields of the states: each inside its bounds.
+    pub fn state_fields(&self) -> Vec<TokenStream> {
+        ranged_fields(&self.st_names, &self.st_tys, &self.st_bounds)
+    }
+
+    /// Generator fields of the inputs: any bits.
+    pub fn input_fields_any(&self) -> Vec<TokenStream> {
+        self.in_names
+            .iter()
+            .zip(&self.in_tys)
+            .map(|(n, t)| quote! { #n: #t, })
+            .collect()
+    }
+
+    /// Generator fields of the inputs: each inside its declared range.
+    pub fn input_fields_ranged(&self) -> Vec<TokenStream> {
+        ranged_fields(&self.in_names, &self.in_tys, &self.in_ranges)
+    }
+
+    /// The harness `step`'s arguments, read from a generated case `c`.
+    pub fn step_args(&self) -> TokenStream {
+        let (i, s) = (&self.in_names, &self.st_names);
+        quote! { #(c.#i,)* #(c.#s,)* }
+    }
+
+    /// The pre-step raw states of a generated case `c`.
+    pub fn pre_from_case(&self) -> TokenStream {
+        let s = &self.st_names;
+        quote! { states_raw(#(c.#s),*) }
+    }
+}
+
+/// `#[generator(lo..=hi)] name: ty,` per signal.
+fn ranged_fields(names: &[Ident], tys: &[Ident], bounds: &[(i128, i128)]) -> Vec<TokenStream> {
+    names
+        .iter()
+        .zip(tys)
+        .zip(bounds)
+        .map(|((n, t), (lo, hi))| {
+            let (lo, hi) = (int(*lo), int(*hi));
+            quote! { #[generator(#lo..=#hi)] #n: #t, }
+        })
+        .collect()
+}
