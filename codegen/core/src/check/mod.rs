@@ -119,6 +119,7 @@ impl Checker {
                 }
                 Item::Word { bits } => {
                     dup(&word, bits.span(), "word")?;
+                    no_suffix(bits.span(), bits.base10_digits(), bits.suffix())?;
                     let b: u32 = bits.base10_parse().unwrap_or(0);
                     if !WIDTHS.contains(&b) {
                         return Err(Diag::new(bits.span(), "word width must be 8, 16, 32 or 64"));
@@ -822,10 +823,32 @@ fn dup<T>(prev: &Option<T>, span: Span, what: &str) -> Result<()> {
     }
 }
 
+/// Refuses a number literal with a Rust suffix (`0.5KC`, `16u8`): the lexer reads `0.5KC` as
+/// 0.5 with suffix `KC`, so a missing `*` would otherwise silently drop a factor.
+fn no_suffix(span: Span, digits: &str, suffix: &str) -> Result<()> {
+    if suffix.is_empty() {
+        return Ok(());
+    }
+    Err(Diag::new(
+        span,
+        format!("the number `{digits}{suffix}` has a suffix `{suffix}`; qloop numbers take none"),
+    )
+    .label("suffix")
+    .help(format!(
+        "if `{suffix}` is a name, write the product with `*`: `{digits} * {suffix}`"
+    )))
+}
+
 fn lit_value(l: &Lit) -> Result<f64> {
     let v = match l {
-        Lit::Float(f) => f.base10_parse::<f64>().map_err(Diag::from)?,
-        Lit::Int(i) => i.base10_parse::<i64>().map_err(Diag::from)? as f64,
+        Lit::Float(f) => {
+            no_suffix(f.span(), f.base10_digits(), f.suffix())?;
+            f.base10_parse::<f64>().map_err(Diag::from)?
+        }
+        Lit::Int(i) => {
+            no_suffix(i.span(), i.base10_digits(), i.suffix())?;
+            i.base10_parse::<i64>().map_err(Diag::from)? as f64
+        }
         other => {
             return Err(Diag::new(other.span(), "expected a number")
                 .help("units go after a declaration as a string: `input f: [0.0, 5.0] \"kN\";`"))
@@ -878,7 +901,10 @@ fn fmt_attrs(attrs: &[syn::Attribute]) -> Result<Attrs> {
             let frac = match f {
                 SExpr::Lit(syn::ExprLit {
                     lit: Lit::Int(i), ..
-                }) => i.base10_parse::<i32>().map_err(|_| bad())?,
+                }) => {
+                    no_suffix(i.span(), i.base10_digits(), i.suffix())?;
+                    i.base10_parse::<i32>().map_err(|_| bad())?
+                }
                 _ => return Err(bad()),
             };
             pin = Some(QFormat {
@@ -977,6 +1003,8 @@ mod tests {
                 17,
             ),
             ("step { y = x * k; }", "unknown name `k`", 5, 16),
+            ("step { y = 0.5k * x; }", "has a suffix `k`", 5, 12),
+            ("step { y = 2u8 * x; }", "has a suffix `u8`", 5, 12),
             (
                 "step { let _t = x; y = _t; }",
                 "reserved for generated code",

@@ -16,6 +16,7 @@
 //! * Stores saturate to the declared range (quantised inward); clamps the analysis proves
 //!   unnecessary are not emitted. Inputs are clamped to their declared range on entry.
 
+mod const_mul;
 pub mod dce;
 pub mod lir;
 pub mod shift_add;
@@ -293,6 +294,31 @@ fn choose_format_unchecked(s: &Signal, word: u32, lo: f64, hi: f64) -> Result<QF
     Ok(q)
 }
 
+/// A value about to be defined ([`Lowerer::push`]): its operation, working type, binary point,
+/// proved raw interval `[lo, hi]` and one-step error bound (physical units).
+struct NewVal {
+    op: Op,
+    ty: IntTy,
+    frac: i32,
+    lo: i128,
+    hi: i128,
+    err: f64,
+}
+
+impl NewVal {
+    /// A value computed exactly from exact operands (error 0), with raw interval `[lo, hi]`.
+    fn exact(op: Op, ty: IntTy, frac: i32, (lo, hi): (i128, i128)) -> NewVal {
+        NewVal {
+            op,
+            ty,
+            frac,
+            lo,
+            hi,
+            err: 0.0,
+        }
+    }
+}
+
 /// Abstract value of a state/output variable.
 #[derive(Clone, Copy, Debug)]
 struct Abs {
@@ -440,12 +466,7 @@ impl<'a> Lowerer<'a> {
             self.here = self.prog.sig(id).span;
             let q = self.fmt(id);
             let raw = self.push(
-                Op::Input(id),
-                q.ty,
-                q.frac,
-                q.ty.min(),
-                q.ty.max(),
-                0.0,
+                NewVal::exact(Op::Input(id), q.ty, q.frac, (q.ty.min(), q.ty.max())),
                 &mut body,
             );
             let (lo, hi) = self.bounds(id);
@@ -499,17 +520,16 @@ impl<'a> Lowerer<'a> {
 
     // ---- value construction ----------------------------------------------------------
 
-    #[allow(clippy::too_many_arguments)]
-    fn push(
-        &mut self,
-        op: Op,
-        ty: IntTy,
-        frac: i32,
-        lo: i128,
-        hi: i128,
-        err: f64,
-        out: &mut Vec<LStmt>,
-    ) -> ValId {
+    /// Defines a new value in `out`.
+    fn push(&mut self, v: NewVal, out: &mut Vec<LStmt>) -> ValId {
+        let NewVal {
+            op,
+            ty,
+            frac,
+            lo,
+            hi,
+            err,
+        } = v;
         debug_assert!(lo <= hi && ty.holds(lo, hi), "{op:?} {ty} [{lo}, {hi}]");
         debug_assert!(
             !matches!(op, Op::Shl(_, k) | Op::Shr(_, k) if k >= ty.bits),
@@ -536,23 +556,14 @@ impl<'a> Lowerer<'a> {
 
     /// Like [`Self::push`], but a range that does not fit `ty` is cut to `ty` and marked as
     /// claimed (only used where a user claim sized the type).
-    #[allow(clippy::too_many_arguments)]
-    fn push_fit(
-        &mut self,
-        op: Op,
-        ty: IntTy,
-        frac: i32,
-        lo: i128,
-        hi: i128,
-        err: f64,
-        out: &mut Vec<LStmt>,
-    ) -> ValId {
-        if ty.holds(lo, hi) {
-            return self.push(op, ty, frac, lo, hi, err, out);
+    fn push_fit(&mut self, v: NewVal, out: &mut Vec<LStmt>) -> ValId {
+        let ty = v.ty;
+        if ty.holds(v.lo, v.hi) {
+            return self.push(v, out);
         }
-        let (l, h) = (lo.max(ty.min()), hi.min(ty.max()));
+        let (l, h) = (v.lo.max(ty.min()), v.hi.min(ty.max()));
         let (l, h) = if l <= h { (l, h) } else { (ty.min(), ty.max()) };
-        let id = self.push(op, ty, frac, l, h, err, out);
+        let id = self.push(NewVal { lo: l, hi: h, ..v }, out);
         self.vals[id.0].claimed = true;
         id
     }
@@ -584,7 +595,17 @@ impl<'a> Lowerer<'a> {
             return Ok(v);
         }
         let ty = self.working(cl, ch, span)?;
-        let id = self.push(Op::Cast(v), ty, x.frac, cl, ch, x.err, out);
+        let id = self.push(
+            NewVal {
+                op: Op::Cast(v),
+                ty,
+                frac: x.frac,
+                lo: cl,
+                hi: ch,
+                err: x.err,
+            },
+            out,
+        );
         self.vals[id.0].claimed = true;
         Ok(id)
     }
@@ -607,7 +628,17 @@ impl<'a> Lowerer<'a> {
         if x.ty == ty {
             return v;
         }
-        self.push(Op::Cast(v), ty, x.frac, x.lo, x.hi, x.err, out)
+        self.push(
+            NewVal {
+                op: Op::Cast(v),
+                ty,
+                frac: x.frac,
+                lo: x.lo,
+                hi: x.hi,
+                err: x.err,
+            },
+            out,
+        )
     }
 
     /// `v · 2^k` exactly, by a left shift. A constant is shifted at compile time, so no shift
@@ -627,11 +658,31 @@ impl<'a> Lowerer<'a> {
         let frac = x.frac + k as i32;
         if lo == hi {
             let ty = self.working(lo, lo, span)?;
-            return Ok(self.push(Op::Const(lo), ty, frac, lo, lo, x.err, out));
+            return Ok(self.push(
+                NewVal {
+                    op: Op::Const(lo),
+                    ty,
+                    frac,
+                    lo,
+                    hi: lo,
+                    err: x.err,
+                },
+                out,
+            ));
         }
         let ty = self.working(lo.min(x.lo), hi.max(x.hi), span)?;
         let c = self.cast(v, ty, out);
-        Ok(self.push(Op::Shl(c, k), ty, frac, lo, hi, x.err, out))
+        Ok(self.push(
+            NewVal {
+                op: Op::Shl(c, k),
+                ty,
+                frac,
+                lo,
+                hi,
+                err: x.err,
+            },
+            out,
+        ))
     }
 
     /// Drops `n` fraction bits with the program's rounding. Where the result can take only
@@ -662,7 +713,17 @@ impl<'a> Lowerer<'a> {
                 added
             };
             let ty = self.working(lo, lo, span)?;
-            return Ok(self.push(Op::Const(lo), ty, frac, lo, lo, x.err + err, out));
+            return Ok(self.push(
+                NewVal {
+                    op: Op::Const(lo),
+                    ty,
+                    frac,
+                    lo,
+                    hi: lo,
+                    err: x.err + err,
+                },
+                out,
+            ));
         }
         let mut src = v;
         let mut x = x;
@@ -674,12 +735,32 @@ impl<'a> Lowerer<'a> {
             // The type holds the operand as well as the sum.
             let ty = self.working(x.lo, x.hi + h, span)?;
             let c = self.cast(src, ty, out);
-            let hv = self.push(Op::Const(h), ty, x.frac, h, h, 0.0, out);
-            src = self.push(Op::Add(c, hv), ty, x.frac, x.lo + h, x.hi + h, x.err, out);
+            let hv = self.push(NewVal::exact(Op::Const(h), ty, x.frac, (h, h)), out);
+            src = self.push(
+                NewVal {
+                    op: Op::Add(c, hv),
+                    ty,
+                    frac: x.frac,
+                    lo: x.lo + h,
+                    hi: x.hi + h,
+                    err: x.err,
+                },
+                out,
+            );
             x = self.v(src).clone();
         }
         let k = n.min(x.ty.bits - 1);
-        Ok(self.push(Op::Shr(src, k), x.ty, frac, lo, hi, x.err + added, out))
+        Ok(self.push(
+            NewVal {
+                op: Op::Shr(src, k),
+                ty: x.ty,
+                frac,
+                lo,
+                hi,
+                err: x.err + added,
+            },
+            out,
+        ))
     }
 
     /// Nearest rounding of a full-width 64-bit value, where `x + 2^(n-1)` would overflow:
@@ -698,29 +779,56 @@ impl<'a> Lowerer<'a> {
     ) -> ValId {
         let x = self.v(v).clone();
         let (ty, f) = (x.ty, x.frac);
-        let q = self.push(Op::Shr(v, n), ty, frac, x.lo >> n, x.hi >> n, x.err, out);
+        let q = self.push(
+            NewVal {
+                op: Op::Shr(v, n),
+                ty,
+                frac,
+                lo: x.lo >> n,
+                hi: x.hi >> n,
+                err: x.err,
+            },
+            out,
+        );
         let (ql, qh) = (x.lo >> n, x.hi >> n);
         let half = self.push(
-            Op::Shr(v, n - 1),
-            ty,
-            f - n as i32 + 1,
-            x.lo >> (n - 1),
-            x.hi >> (n - 1),
-            x.err,
+            NewVal {
+                op: Op::Shr(v, n - 1),
+                ty,
+                frac: f - n as i32 + 1,
+                lo: x.lo >> (n - 1),
+                hi: x.hi >> (n - 1),
+                err: x.err,
+            },
             out,
         );
         let twice = self.push(
-            Op::Shl(q, 1),
-            ty,
-            f - n as i32 + 1,
-            2 * ql,
-            2 * qh,
-            x.err,
+            NewVal {
+                op: Op::Shl(q, 1),
+                ty,
+                frac: f - n as i32 + 1,
+                lo: 2 * ql,
+                hi: 2 * qh,
+                err: x.err,
+            },
             out,
         );
-        let bit = self.push(Op::Sub(half, twice), ty, f - n as i32 + 1, 0, 1, 0.0, out);
+        let bit = self.push(
+            NewVal::exact(Op::Sub(half, twice), ty, f - n as i32 + 1, (0, 1)),
+            out,
+        );
         self.vals[bit.0].claimed = true;
-        self.push(Op::Add(q, bit), ty, frac, ql, qh + 1, x.err + added, out)
+        self.push(
+            NewVal {
+                op: Op::Add(q, bit),
+                ty,
+                frac,
+                lo: ql,
+                hi: qh + 1,
+                err: x.err + added,
+            },
+            out,
+        )
     }
 
     /// `v` re-expressed with `frac` fraction bits.
@@ -742,29 +850,33 @@ impl<'a> Lowerer<'a> {
         let ty = self.working(tl, th, self.here)?;
         if x.lo < lo {
             cur = self.cast(cur, ty, out);
-            let c = self.push(Op::Const(lo), ty, x.frac, lo, lo, 0.0, out);
+            let c = self.push(NewVal::exact(Op::Const(lo), ty, x.frac, (lo, lo)), out);
             let y = self.v(cur).clone();
             cur = self.push(
-                Op::Max(cur, c),
-                ty,
-                x.frac,
-                lo.max(y.lo),
-                lo.max(y.hi),
-                y.err,
+                NewVal {
+                    op: Op::Max(cur, c),
+                    ty,
+                    frac: x.frac,
+                    lo: lo.max(y.lo),
+                    hi: lo.max(y.hi),
+                    err: y.err,
+                },
                 out,
             );
         }
         if x.hi > hi {
             cur = self.cast(cur, ty, out);
-            let c = self.push(Op::Const(hi), ty, x.frac, hi, hi, 0.0, out);
+            let c = self.push(NewVal::exact(Op::Const(hi), ty, x.frac, (hi, hi)), out);
             let y = self.v(cur).clone();
             cur = self.push(
-                Op::Min(cur, c),
-                ty,
-                x.frac,
-                hi.min(y.lo),
-                hi.min(y.hi),
-                y.err,
+                NewVal {
+                    op: Op::Min(cur, c),
+                    ty,
+                    frac: x.frac,
+                    lo: hi.min(y.lo),
+                    hi: hi.min(y.hi),
+                    err: y.err,
+                },
                 out,
             );
         }
@@ -828,7 +940,17 @@ impl<'a> Lowerer<'a> {
                     // Give the binding its own name in the emitted code.
                     if self.vals[v.0].name.is_some() {
                         let y = self.v(v).clone();
-                        v = self.push(Op::Cast(v), y.ty, y.frac, y.lo, y.hi, y.err, out);
+                        v = self.push(
+                            NewVal {
+                                op: Op::Cast(v),
+                                ty: y.ty,
+                                frac: y.frac,
+                                lo: y.lo,
+                                hi: y.hi,
+                                err: y.err,
+                            },
+                            out,
+                        );
                     }
                     self.vals[v.0].name = Some(sig.name.clone());
                     self.locals.insert(*target, v);
@@ -920,7 +1042,10 @@ impl<'a> Lowerer<'a> {
                 .zip(shl_exact(x.hi, s as i32))
                 .is_some_and(|(l, h)| IntTy::signed_for(l.min(x.lo), h.max(x.hi), 8).is_some());
             if !fits {
-                let (plo, phi) = (lo >> s, -((-hi) >> s));
+                // Floor and ceiling of the bounds at the value's binary point (an `i128` shift
+                // by 127 already gives 0 or ±1 for any bound, as a wider one would).
+                let k = s.min(127);
+                let (plo, phi) = (lo >> k, -((-hi) >> k));
                 pre_clamped = x.lo < plo || x.hi > phi;
                 v = self.clamp(v, plo, phi, out)?;
             }
@@ -936,7 +1061,17 @@ impl<'a> Lowerer<'a> {
                 let x = self.v(v).clone();
                 let (cl, ch) = (x.lo.max(lo).min(hi), x.hi.min(hi).max(lo));
                 let ty = self.working(cl, ch, span)?;
-                v = self.push(Op::Cast(v), ty, x.frac, cl, ch, x.err, out);
+                v = self.push(
+                    NewVal {
+                        op: Op::Cast(v),
+                        ty,
+                        frac: x.frac,
+                        lo: cl,
+                        hi: ch,
+                        err: x.err,
+                    },
+                    out,
+                );
                 self.vals[v.0].claimed = true;
             }
         } else if pre_clamped || y.lo < lo || y.hi > hi {
@@ -989,7 +1124,17 @@ impl<'a> Lowerer<'a> {
         // is cast there first.
         let ty = self.working(x.lo.min(-x.hi), x.hi.max(-x.lo), self.here)?;
         let c = self.cast(a, ty, out);
-        Ok(self.push(Op::Neg(c), ty, x.frac, -x.hi, -x.lo, x.err, out))
+        Ok(self.push(
+            NewVal {
+                op: Op::Neg(c),
+                ty,
+                frac: x.frac,
+                lo: -x.hi,
+                hi: -x.lo,
+                err: x.err,
+            },
+            out,
+        ))
     }
 
     fn product(
@@ -1026,7 +1171,17 @@ impl<'a> Lowerer<'a> {
         let (a, b, f, ty) = self.align(a, b, Bin::Hull, self.here, out)?;
         let (x, y) = (self.v(a), self.v(b));
         let (lo, hi, err) = (x.lo.min(y.lo), x.hi.max(y.hi), x.err.max(y.err));
-        Ok(self.push(Op::Select(c, a, b), ty, f, lo, hi, err, out))
+        Ok(self.push(
+            NewVal {
+                op: Op::Select(c, a, b),
+                ty,
+                frac: f,
+                lo,
+                hi,
+                err,
+            },
+            out,
+        ))
     }
 
     fn var(&mut self, id: SigId, span: Span, out: &mut Vec<LStmt>) -> Result<ValId> {
@@ -1045,7 +1200,17 @@ impl<'a> Lowerer<'a> {
                     None => IntTy::signed_for(a.lo, a.hi, 8).unwrap_or(q.ty),
                 };
                 let frac = a.frac;
-                Ok(self.push(Op::Load(id), ty, frac, a.lo, a.hi, a.err, out))
+                Ok(self.push(
+                    NewVal {
+                        op: Op::Load(id),
+                        ty,
+                        frac,
+                        lo: a.lo,
+                        hi: a.hi,
+                        err: a.err,
+                    },
+                    out,
+                ))
             }
         }
     }
@@ -1091,7 +1256,17 @@ impl<'a> Lowerer<'a> {
         }
         let ty = self.working(raw, raw, span)?;
         let err = (c - raw as f64 * pow2(-frac)).abs();
-        Ok(self.push(Op::Const(raw), ty, frac, raw, raw, err, out))
+        Ok(self.push(
+            NewVal {
+                op: Op::Const(raw),
+                ty,
+                frac,
+                lo: raw,
+                hi: raw,
+                err,
+            },
+            out,
+        ))
     }
 
     /// Lowers two operands; a constant operand takes the other operand's binary point.
@@ -1232,7 +1407,17 @@ impl<'a> Lowerer<'a> {
             Bin::Max => (Op::Max(a, b), x.err.max(y.err)),
             Bin::Hull | Bin::Mul => unreachable!("not an additive operation"),
         };
-        Ok(self.push(o, ty, f, lo, hi, err, out))
+        Ok(self.push(
+            NewVal {
+                op: o,
+                ty,
+                frac: f,
+                lo,
+                hi,
+                err,
+            },
+            out,
+        ))
     }
 
     /// Variable × variable: a widening multiply, exact unless the product would exceed 64 bits.
@@ -1249,7 +1434,17 @@ impl<'a> Lowerer<'a> {
                 let mx = x.lo.abs().max(x.hi.abs()) as f64 * pow2(-x.frac);
                 let my = y.lo.abs().max(y.hi.abs()) as f64 * pow2(-y.frac);
                 let err = mx * y.err + my * x.err + 3.0 * x.err * y.err;
-                return Ok(self.push(Op::Mul(a2, b2), ty, x.frac + y.frac, plo, phi, err, out));
+                return Ok(self.push(
+                    NewVal {
+                        op: Op::Mul(a2, b2),
+                        ty,
+                        frac: x.frac + y.frac,
+                        lo: plo,
+                        hi: phi,
+                        err,
+                    },
+                    out,
+                ));
             }
             // Too wide: drop one fraction bit from the operand with more of them.
             let bits = |v: &Val| 128 - v.lo.abs().max(v.hi.abs()).leading_zeros();
@@ -1262,222 +1457,6 @@ impl<'a> Lowerer<'a> {
                 b = self.round(b, 1, span, out)?;
             }
         }
-    }
-
-    /// Variable × constant: shift-add network, or the multiplier if the cost model says so.
-    #[allow(clippy::too_many_arguments)]
-    fn mul_const(
-        &mut self,
-        x: ValId,
-        c: f64,
-        name: Option<String>,
-        claim: Option<(f64, f64)>,
-        span: Span,
-        out: &mut Vec<LStmt>,
-    ) -> Result<ValId> {
-        // If the exact product would exceed 64 bits, drop the fewest fraction bits of x that
-        // make it fit (with the program's rounding; the error is counted).
-        let n = self.factor_rounding(x, c, span)?;
-        let x = self.round(x, n, span, out)?;
-        let xv = self.v(x).clone();
-        let mx = xv.lo.abs().max(xv.hi.abs()) as f64 * pow2(-xv.frac);
-        let (m, k) = if c == 0.0 || mx == 0.0 {
-            (0, 0)
-        } else {
-            quantise(c, xv.frac, mx).ok_or_else(|| too_wide_product(c, span))?
-        };
-        let q = m as f64 * pow2(-k);
-        let err = (q.abs() * xv.err) + (mx + xv.err) * (q - c).abs();
-        let frac = xv.frac + k;
-        if m == 0 {
-            // c = 0, or x is identically 0: the product is exactly 0.
-            return Ok(self.push(
-                Op::Const(0),
-                IntTy::signed(self.target.min_work_bits()),
-                frac,
-                0,
-                0,
-                err,
-                out,
-            ));
-        }
-        let plan = shift_add::best(m);
-        let coefs: Vec<i128> = plan.step_coefficients();
-        // Largest magnitude any partial term reaches, for the working type.
-        let mut maxc = m.abs();
-        for (s, st) in plan.steps.iter().enumerate() {
-            let coef_of = |o: shift_add::Operand| match o {
-                shift_add::Operand::X => 1i128,
-                shift_add::Operand::Step(j) => coefs[j],
-            };
-            maxc = maxc
-                .max(coef_of(st.a).abs() << st.a_shift)
-                .max(coef_of(st.b).abs() << st.b_shift)
-                .max(coefs[s].abs());
-        }
-        let xm = xv.lo.abs().max(xv.hi.abs());
-        let ty = match claim {
-            // A claim on the product sizes the network: partial sums the claim does not cover
-            // become proof obligations.
-            Some((lo, hi)) => {
-                let q = QFormat { ty: xv.ty, frac };
-                self.working(q.raw_floor(lo).min(xv.lo), q.raw_ceil(hi).max(xv.hi), span)?
-            }
-            None => self.working(-(xm * maxc), xm * maxc, span)?,
-        };
-        let bits = ty.bits;
-        // Whether a term `c·x` has room for the rounded-up split of a shift by `k` (the test
-        // the C emitter applies to the same term, `emit::c::byte_split`).
-        let up_room = |c: i128, k: u32| {
-            let n = self.target.word_bits * (k / self.target.word_bits + 1);
-            let (a, b) = (xv.lo * c, xv.hi * c);
-            n + 1 < ty.bits
-                && shl_exact(a.min(b), n as i32)
-                    .zip(shl_exact(a.max(b), n as i32))
-                    .is_some_and(|(lo, hi)| ty.holds(lo, hi))
-        };
-        let sa_cost = self.target.shift_add_cost(&plan, bits, &up_room);
-        // Both factors as the compiler sees them: x sign-extended from its own type, m as
-        // a constant of the narrowest C type (at least `int`) that holds it.
-        let m_bits = (129 - m.unsigned_abs().leading_zeros()).max(self.target.min_work_bits());
-        let operand_bits = xv.ty.bits.max(m_bits.next_power_of_two());
-        let hw_cost = self.target.const_mul_cost(bits, operand_bits);
-        let (plo, phi) = Bin::Mul.range((xv.lo, xv.hi), (m, m));
-        let hw = plan.adders() > 0 && (hw_cost < sa_cost || self.target.force_multiply);
-        self.mults.push(MulNote {
-            constant: c,
-            name,
-            m,
-            k,
-            adders: plan.adders(),
-            shifts: plan.shifts(),
-            hw_mul: hw,
-            costs: (sa_cost, hw_cost),
-        });
-        let xw = self.cast(x, ty, out);
-        if hw {
-            let cm = self.push(Op::Const(m), ty, 0, m, m, 0.0, out);
-            return Ok(self.push(Op::Mul(xw, cm), ty, frac, plo, phi, err, out));
-        }
-        // Shift-add network; every partial value is coef·x, exact.
-        let range = |coef: i128| -> (i128, i128) {
-            let (a, b) = (xv.lo * coef, xv.hi * coef);
-            (a.min(b), a.max(b))
-        };
-        let mut step_vals: Vec<ValId> = Vec::new();
-        for (s, st) in plan.steps.iter().enumerate() {
-            let operand = |o: shift_add::Operand, sv: &Vec<ValId>| match o {
-                shift_add::Operand::X => (xw, 1i128),
-                shift_add::Operand::Step(j) => (sv[j], coefs[j]),
-            };
-            let (av, ac) = operand(st.a, &step_vals);
-            let (bv, bc) = operand(st.b, &step_vals);
-            let term = |v: ValId, c: i128, sh: u32, lw: &mut Self, out: &mut Vec<LStmt>| -> ValId {
-                if sh == 0 {
-                    return v;
-                }
-                let (lo, hi) = range(c << sh);
-                let t = lw.push_fit(Op::Shl(v, sh), ty, xv.frac, lo, hi, 0.0, out);
-                lw.vals[t.0].network = true;
-                t
-            };
-            let mut ta = term(av, ac, st.a_shift, self, out);
-            let tb = term(bv, bc, st.b_shift, self, out);
-            let ca = if st.negate_a {
-                -(ac << st.a_shift)
-            } else {
-                ac << st.a_shift
-            };
-            if st.negate_a {
-                let (lo, hi) = range(ca);
-                ta = self.push_fit(Op::Neg(ta), ty, xv.frac, lo, hi, 0.0, out);
-            }
-            let (lo, hi) = range(coefs[s]);
-            let op = if st.subtract {
-                Op::Sub(ta, tb)
-            } else {
-                Op::Add(ta, tb)
-            };
-            step_vals.push(self.push_fit(op, ty, xv.frac, lo, hi, 0.0, out));
-        }
-        let mut r = match plan.result {
-            shift_add::Operand::X => xw,
-            shift_add::Operand::Step(j) => step_vals[j],
-        };
-        let mut coef = match plan.result {
-            shift_add::Operand::X => 1,
-            shift_add::Operand::Step(j) => coefs[j],
-        };
-        if plan.final_shift > 0 {
-            coef <<= plan.final_shift;
-            let (lo, hi) = range(coef);
-            r = self.push_fit(Op::Shl(r, plan.final_shift), ty, xv.frac, lo, hi, 0.0, out);
-        }
-        if plan.negate {
-            coef = -coef;
-            let (lo, hi) = range(coef);
-            r = self.push_fit(Op::Neg(r), ty, xv.frac, lo, hi, 0.0, out);
-        }
-        debug_assert_eq!(coef, m, "shift-add plan computes {coef}·x, wanted {m}·x");
-        // Re-label the binary point: the network computed x·m; the value is x·m·2^-k.
-        Ok(self.push_fit(Op::Cast(r), ty, frac, plo, phi, err, out))
-    }
-
-    /// How many fraction bits `x` must drop before `x · c` fits 64-bit arithmetic, with `c`
-    /// quantised by [`quantise`] (error ≤ ½ LSB of the rounded `x`): the fewest, so that the
-    /// product keeps every bit of precision the words allow. A factor whose product with `x`
-    /// lies below half an LSB of `x` would quantise to 0, and is refused; so is one whose
-    /// product leaves the f64 range.
-    fn factor_rounding(&self, x: ValId, c: f64, span: Span) -> Result<u32> {
-        let xv = self.v(x);
-        let xm = xv.lo.abs().max(xv.hi.abs());
-        if c == 0.0 || xm == 0 {
-            return Ok(0);
-        }
-        let mx = xm as f64 * pow2(-xv.frac);
-        if !(c.abs() * mx).is_finite() {
-            return Err(Diag::new(
-                span,
-                format!(
-                    "the product with {} overflows: its magnitude exceeds the f64 range \
-                     (±1.8e308), so neither the reference nor the fixed-point code can hold it",
-                    crate::text::g(c)
-                ),
-            )
-            .label("overflows")
-            .help("change units so that the constants and ranges are closer to 1"));
-        }
-        if c.abs() * mx <= pow2(-xv.frac - 1) {
-            return Err(Diag::new(
-                span,
-                format!(
-                    "the factor {} vanishes in this product: |{} · x| ≤ {:.3e} is below half the \
-                     resolution of the other factor (LSB {:.3e}), so the product would be 0",
-                    crate::text::g(c),
-                    crate::text::g(c),
-                    c.abs() * mx,
-                    pow2(-xv.frac)
-                ),
-            )
-            .label("quantises to 0")
-            .help(
-                "remove the term if it is negligible; otherwise give the other factor a finer \
-                 format (`#[lsb(..)]` or `#[q(..)]` on a `let` or its declaration), or change \
-                 units so that the constant is larger",
-            ));
-        }
-        let bits = 128 - xm.leading_zeros();
-        for n in 0..bits {
-            let (lo, hi) = self.rounded(xv.lo, xv.hi, n);
-            let xm = lo.abs().max(hi.abs()).max(1);
-            let mx = xm as f64 * pow2(n as i32 - xv.frac);
-            if let Some((m, _)) = quantise(c, xv.frac - n as i32, mx) {
-                if 128 - (xm * m.abs()).leading_zeros() + 2 <= 64 {
-                    return Ok(n);
-                }
-            }
-        }
-        Err(too_wide_product(c, span))
     }
 
     /// The raw interval of `[lo, hi]` after dropping `n` fraction bits with the program's
@@ -1535,7 +1514,17 @@ impl<'a> Lowerer<'a> {
     }
 
     fn boolean(&mut self, op: Op, err: f64, out: &mut Vec<LStmt>) -> ValId {
-        let id = self.push(op, IntTy::signed(8), 0, 0, 1, err, out);
+        let id = self.push(
+            NewVal {
+                op,
+                ty: IntTy::signed(8),
+                frac: 0,
+                lo: 0,
+                hi: 1,
+                err,
+            },
+            out,
+        );
         self.vals[id.0].boolean = true;
         id
     }
@@ -1560,7 +1549,7 @@ impl<'a> Lowerer<'a> {
         let t = t.clamp(xv.lo - 1, xv.hi + 1);
         let ty = self.working(xv.lo.min(t), xv.hi.max(t), self.here)?;
         let a = self.cast(v, ty, out);
-        let k = self.push(Op::Const(t), ty, xv.frac, t, t, 0.0, out);
+        let k = self.push(NewVal::exact(Op::Const(t), ty, xv.frac, (t, t)), out);
         Ok(self.boolean(Op::Cmp(op, a, k), xv.err, out))
     }
 
@@ -1568,8 +1557,8 @@ impl<'a> Lowerer<'a> {
     /// reference decides it): `0 < 1` or `1 < 0`.
     fn decided(&mut self, truth: bool, out: &mut Vec<LStmt>) -> Result<ValId> {
         let ty = IntTy::signed(self.target.min_work_bits());
-        let zero = self.push(Op::Const(0), ty, 0, 0, 0, 0.0, out);
-        let one = self.push(Op::Const(1), ty, 0, 1, 1, 0.0, out);
+        let zero = self.push(NewVal::exact(Op::Const(0), ty, 0, (0, 0)), out);
+        let one = self.push(NewVal::exact(Op::Const(1), ty, 0, (1, 1)), out);
         let (a, b) = if truth { (zero, one) } else { (one, zero) };
         Ok(self.boolean(Op::Cmp(CmpOp::Lt, a, b), 0.0, out))
     }
@@ -1625,45 +1614,6 @@ fn shl_exact(v: i128, k: i32) -> Option<i128> {
     }
     let r = v.checked_mul(1i128 << k)?;
     (r.unsigned_abs() < 1u128 << 100).then_some(r)
-}
-
-/// Quantises a non-zero constant factor `c` for a product with a value of `frac` fraction bits
-/// and magnitude up to `mx` as `m·2^-k` (`m` odd), fine enough that
-/// |c − m·2^-k|·mx ≤ ½ LSB of that value, with the fewest significant bits; `None` if that
-/// needs `|m| ≥ 2^62`.
-fn quantise(c: f64, frac: i32, mx: f64) -> Option<(i128, i32)> {
-    let tol = pow2(-frac - 1);
-    // c·2^-e ∈ [1, 2); from k = -e - 1 on, m = round(c·2^k) is at least 1.
-    let e = c.abs().log2().floor() as i32;
-    for kk in (-e - 1)..(-e + 62) {
-        // c·2^kk in two steps, so that neither factor over- or underflows.
-        let mm = (c * pow2(kk / 2) * pow2(kk - kk / 2)).round();
-        if mm.abs() >= pow2(62) {
-            return None;
-        }
-        let (mut m, mut k) = (mm as i128, kk);
-        if (c - mm * pow2(-kk / 2) * pow2(-(kk - kk / 2))).abs() * mx <= tol {
-            while m != 0 && m % 2 == 0 {
-                m /= 2;
-                k -= 1;
-            }
-            return Some((m, k));
-        }
-    }
-    None
-}
-
-/// The error for a constant factor whose product cannot be held in 64-bit arithmetic.
-fn too_wide_product(c: f64, span: Span) -> Diag {
-    Diag::new(
-        span,
-        format!(
-            "the product with {} cannot be computed in 64-bit arithmetic at the precision qloop \
-             guarantees (the constant quantised within half an LSB of the other factor)",
-            crate::text::g(c)
-        ),
-    )
-    .help("narrow the other factor's range, or change units so that the constant is closer to 1")
 }
 
 /// Binary operation kinds for range computation.
@@ -1744,5 +1694,21 @@ mod tests {
         let q = summary("q");
         assert!(q.err < 1e-8, "error bound {}", q.err);
         assert!((q.range.0 - (-3.405 + 1.362)).abs() < 1e-8, "{:?}", q.range);
+    }
+
+    /// A store whose value has far fewer fraction bits than the target (here 1e300 times a
+    /// 12-bit value into a 14-bit state: ~1000 bits apart) is refused with a located error;
+    /// the pre-clamp at the value's own binary point used to shift an `i128` by that many
+    /// bits (found by `codegen/tests/random_specs.rs`).
+    #[test]
+    fn a_store_from_a_vastly_coarser_value_is_refused_not_a_panic() {
+        let src = include_str!("../../../../verified/specs/acc_fixed_gain.qloop");
+        let src = src.replace("u += KC * e;", "u += 1e300 * e;");
+        assert_ne!(
+            src,
+            include_str!("../../../../verified/specs/acc_fixed_gain.qloop")
+        );
+        let e = crate::compile_str(&src, &Target::default()).unwrap_err();
+        assert!(e.message.contains("more than 64 bits"), "{}", e.message);
     }
 }

@@ -1,0 +1,331 @@
+//! Variable × constant: the constant gains of every controller (the 1981 law's K_c·2^-n
+//! steps, 000_b8cbacf29caa8fe2.txt, eqs. 8–10, are shifts and adds by construction).
+//!
+//! Four steps, one method each: [`Lowerer::const_factor`] quantises the constant on the
+//! variable's grid (dropping the fewest fraction bits of the variable that keep the product
+//! in 64 bits), [`Lowerer::network_type`] sizes the working type from the largest partial
+//! term, [`Lowerer::choose_multiplier`] prices the shift-add network against the target's
+//! multiplier and records the choice, and [`Lowerer::emit_network`] emits the network (a
+//! multiply is one operation). Either way the product is exactly `x · m`, relabelled as
+//! `x · m · 2^-k`.
+
+use super::lir::{LStmt, Op, Val, ValId};
+use super::{shift_add, shl_exact, Bin, Lowerer, MulNote, NewVal};
+use crate::diag::{Diag, Result};
+use crate::qformat::{pow2, IntTy, QFormat};
+use proc_macro2::Span;
+
+/// A constant factor quantised for one product: `c ≈ m · 2^-k`, the product's binary point
+/// `frac`, and the product's one-step error bound.
+struct ConstFactor {
+    m: i128,
+    k: i32,
+    frac: i32,
+    err: f64,
+}
+
+impl Lowerer<'_> {
+    /// Variable × constant: shift-add network, or the multiplier if the cost model says so.
+    pub(super) fn mul_const(
+        &mut self,
+        x: ValId,
+        c: f64,
+        name: Option<String>,
+        claim: Option<(f64, f64)>,
+        span: Span,
+        out: &mut Vec<LStmt>,
+    ) -> Result<ValId> {
+        let (x, f) = self.const_factor(x, c, span, out)?;
+        let xv = self.v(x).clone();
+        if f.m == 0 {
+            // c = 0, or x is identically 0: the product is exactly 0.
+            let ty = IntTy::signed(self.target.min_work_bits());
+            let v = NewVal::exact(Op::Const(0), ty, f.frac, (0, 0));
+            return Ok(self.push(NewVal { err: f.err, ..v }, out));
+        }
+        let net = shift_add::best(f.m);
+        let ty = self.network_type(&xv, &f, &net, claim, span)?;
+        let hw = self.choose_multiplier(&xv, c, name, &f, &net, ty);
+        let xw = self.cast(x, ty, out);
+        let (lo, hi) = Bin::Mul.range((xv.lo, xv.hi), (f.m, f.m));
+        let product = |op| NewVal {
+            op,
+            ty,
+            frac: f.frac,
+            lo,
+            hi,
+            err: f.err,
+        };
+        if hw {
+            let cm = self.push(NewVal::exact(Op::Const(f.m), ty, 0, (f.m, f.m)), out);
+            return Ok(self.push(product(Op::Mul(xw, cm)), out));
+        }
+        let r = self.emit_network(xw, &xv, f.m, &net, ty, out);
+        // Re-label the binary point: the network computed x·m; the value is x·m·2^-k.
+        Ok(self.push_fit(product(Op::Cast(r)), out))
+    }
+
+    /// Rounds `x` as [`Self::factor_rounding`] says, then quantises `c` on its grid
+    /// ([`quantise`]); the error bound counts both `x`'s error scaled by the quantised
+    /// factor and the factor's quantisation error over `x`'s range.
+    fn const_factor(
+        &mut self,
+        x: ValId,
+        c: f64,
+        span: Span,
+        out: &mut Vec<LStmt>,
+    ) -> Result<(ValId, ConstFactor)> {
+        // If the exact product would exceed 64 bits, drop the fewest fraction bits of x that
+        // make it fit (with the program's rounding; the error is counted).
+        let n = self.factor_rounding(x, c, span)?;
+        let x = self.round(x, n, span, out)?;
+        let xv = self.v(x);
+        let mx = xv.lo.abs().max(xv.hi.abs()) as f64 * pow2(-xv.frac);
+        let (m, k) = if c == 0.0 || mx == 0.0 {
+            (0, 0)
+        } else {
+            quantise(c, xv.frac, mx).ok_or_else(|| too_wide_product(c, span))?
+        };
+        let q = m as f64 * pow2(-k);
+        let err = (q.abs() * xv.err) + (mx + xv.err) * (q - c).abs();
+        let frac = xv.frac + k;
+        Ok((x, ConstFactor { m, k, frac, err }))
+    }
+
+    /// The working type of the product and every partial term of its network: from the
+    /// largest term, or from a `#[range]` claim on the product (partial sums the claim does
+    /// not cover become proof obligations).
+    fn network_type(
+        &self,
+        xv: &Val,
+        f: &ConstFactor,
+        net: &shift_add::ShiftAddPlan,
+        claim: Option<(f64, f64)>,
+        span: Span,
+    ) -> Result<IntTy> {
+        let coefs: Vec<i128> = net.step_coefficients();
+        // Largest magnitude any partial term reaches, for the working type.
+        let mut maxc = f.m.abs();
+        for (s, st) in net.steps.iter().enumerate() {
+            let coef_of = |o: shift_add::Operand| match o {
+                shift_add::Operand::X => 1i128,
+                shift_add::Operand::Step(j) => coefs[j],
+            };
+            maxc = maxc
+                .max(coef_of(st.a).abs() << st.a_shift)
+                .max(coef_of(st.b).abs() << st.b_shift)
+                .max(coefs[s].abs());
+        }
+        let xm = xv.lo.abs().max(xv.hi.abs());
+        match claim {
+            Some((lo, hi)) => {
+                let q = QFormat {
+                    ty: xv.ty,
+                    frac: f.frac,
+                };
+                self.working(q.raw_floor(lo).min(xv.lo), q.raw_ceil(hi).max(xv.hi), span)
+            }
+            None => self.working(-(xm * maxc), xm * maxc, span),
+        }
+    }
+
+    /// Whether the multiplier computes the product (else the shift-add network): the target's
+    /// cost model prices both (`Target::shift_add_cost`, `Target::const_mul_cost`); the choice
+    /// is recorded as a [`MulNote`] for `qloop check`.
+    fn choose_multiplier(
+        &mut self,
+        xv: &Val,
+        c: f64,
+        name: Option<String>,
+        f: &ConstFactor,
+        net: &shift_add::ShiftAddPlan,
+        ty: IntTy,
+    ) -> bool {
+        let (m, bits) = (f.m, ty.bits);
+        // Whether a term `c·x` has room for the rounded-up split of a shift by `k` (the test
+        // the C emitter applies to the same term, `emit::c::byte_split`).
+        let up_room = |c: i128, k: u32| {
+            let n = self.target.word_bits * (k / self.target.word_bits + 1);
+            let (a, b) = (xv.lo * c, xv.hi * c);
+            n + 1 < ty.bits
+                && shl_exact(a.min(b), n as i32)
+                    .zip(shl_exact(a.max(b), n as i32))
+                    .is_some_and(|(lo, hi)| ty.holds(lo, hi))
+        };
+        let sa_cost = self.target.shift_add_cost(net, bits, &up_room);
+        // Both factors as the compiler sees them: x sign-extended from its own type, m as
+        // a constant of the narrowest C type (at least `int`) that holds it.
+        let m_bits = (129 - m.unsigned_abs().leading_zeros()).max(self.target.min_work_bits());
+        let operand_bits = xv.ty.bits.max(m_bits.next_power_of_two());
+        let hw_cost = self.target.const_mul_cost(bits, operand_bits);
+        let hw = net.adders() > 0 && (hw_cost < sa_cost || self.target.force_multiply);
+        self.mults.push(MulNote {
+            constant: c,
+            name,
+            m,
+            k: f.k,
+            adders: net.adders(),
+            shifts: net.shifts(),
+            hw_mul: hw,
+            costs: (sa_cost, hw_cost),
+        });
+        hw
+    }
+
+    /// Emits the shift-add network computing `m · xw` (every partial value is `coef · x`,
+    /// exact, in `ty`); returns the value `x · m` at `x`'s binary point.
+    fn emit_network(
+        &mut self,
+        xw: ValId,
+        xv: &Val,
+        m: i128,
+        net: &shift_add::ShiftAddPlan,
+        ty: IntTy,
+        out: &mut Vec<LStmt>,
+    ) -> ValId {
+        let coefs: Vec<i128> = net.step_coefficients();
+        let range = |coef: i128| -> (i128, i128) {
+            let (a, b) = (xv.lo * coef, xv.hi * coef);
+            (a.min(b), a.max(b))
+        };
+        let exact = |op, coef| NewVal::exact(op, ty, xv.frac, range(coef));
+        let mut step_vals: Vec<ValId> = Vec::new();
+        for (s, st) in net.steps.iter().enumerate() {
+            let operand = |o: shift_add::Operand, sv: &Vec<ValId>| match o {
+                shift_add::Operand::X => (xw, 1i128),
+                shift_add::Operand::Step(j) => (sv[j], coefs[j]),
+            };
+            let (av, ac) = operand(st.a, &step_vals);
+            let (bv, bc) = operand(st.b, &step_vals);
+            let term = |v: ValId, c: i128, sh: u32, lw: &mut Self, out: &mut Vec<LStmt>| -> ValId {
+                if sh == 0 {
+                    return v;
+                }
+                let t = lw.push_fit(exact(Op::Shl(v, sh), c << sh), out);
+                lw.vals[t.0].network = true;
+                t
+            };
+            let mut ta = term(av, ac, st.a_shift, self, out);
+            let tb = term(bv, bc, st.b_shift, self, out);
+            if st.negate_a {
+                ta = self.push_fit(exact(Op::Neg(ta), -(ac << st.a_shift)), out);
+            }
+            let op = if st.subtract {
+                Op::Sub(ta, tb)
+            } else {
+                Op::Add(ta, tb)
+            };
+            step_vals.push(self.push_fit(exact(op, coefs[s]), out));
+        }
+        let (mut r, mut coef) = match net.result {
+            shift_add::Operand::X => (xw, 1),
+            shift_add::Operand::Step(j) => (step_vals[j], coefs[j]),
+        };
+        if net.final_shift > 0 {
+            coef <<= net.final_shift;
+            r = self.push_fit(exact(Op::Shl(r, net.final_shift), coef), out);
+        }
+        if net.negate {
+            coef = -coef;
+            r = self.push_fit(exact(Op::Neg(r), coef), out);
+        }
+        debug_assert_eq!(coef, m, "shift-add plan computes {coef}·x, wanted {m}·x");
+        r
+    }
+
+    /// How many fraction bits `x` must drop before `x · c` fits 64-bit arithmetic, with `c`
+    /// quantised by [`quantise`] (error ≤ ½ LSB of the rounded `x`): the fewest, so that the
+    /// product keeps every bit of precision the words allow. A factor whose product with `x`
+    /// lies below half an LSB of `x` would quantise to 0, and is refused; so is one whose
+    /// product leaves the f64 range.
+    fn factor_rounding(&self, x: ValId, c: f64, span: Span) -> Result<u32> {
+        let xv = self.v(x);
+        let xm = xv.lo.abs().max(xv.hi.abs());
+        if c == 0.0 || xm == 0 {
+            return Ok(0);
+        }
+        let mx = xm as f64 * pow2(-xv.frac);
+        if !(c.abs() * mx).is_finite() {
+            return Err(Diag::new(
+                span,
+                format!(
+                    "the product with {} overflows: its magnitude exceeds the f64 range \
+                     (±1.8e308), so neither the reference nor the fixed-point code can hold it",
+                    crate::text::g(c)
+                ),
+            )
+            .label("overflows")
+            .help("change units so that the constants and ranges are closer to 1"));
+        }
+        if c.abs() * mx <= pow2(-xv.frac - 1) {
+            return Err(Diag::new(
+                span,
+                format!(
+                    "the factor {} vanishes in this product: |{} · x| ≤ {:.3e} is below half the \
+                     resolution of the other factor (LSB {:.3e}), so the product would be 0",
+                    crate::text::g(c),
+                    crate::text::g(c),
+                    c.abs() * mx,
+                    pow2(-xv.frac)
+                ),
+            )
+            .label("quantises to 0")
+            .help(
+                "remove the term if it is negligible; otherwise give the other factor a finer \
+                 format (`#[lsb(..)]` or `#[q(..)]` on a `let` or its declaration), or change \
+                 units so that the constant is larger",
+            ));
+        }
+        let bits = 128 - xm.leading_zeros();
+        for n in 0..bits {
+            let (lo, hi) = self.rounded(xv.lo, xv.hi, n);
+            let xm = lo.abs().max(hi.abs()).max(1);
+            let mx = xm as f64 * pow2(n as i32 - xv.frac);
+            if let Some((m, _)) = quantise(c, xv.frac - n as i32, mx) {
+                if 128 - (xm * m.abs()).leading_zeros() + 2 <= 64 {
+                    return Ok(n);
+                }
+            }
+        }
+        Err(too_wide_product(c, span))
+    }
+}
+
+/// Quantises a non-zero constant factor `c` for a product with a value of `frac` fraction bits
+/// and magnitude up to `mx` as `m·2^-k` (`m` odd), fine enough that
+/// |c − m·2^-k|·mx ≤ ½ LSB of that value, with the fewest significant bits; `None` if that
+/// needs `|m| ≥ 2^62`.
+fn quantise(c: f64, frac: i32, mx: f64) -> Option<(i128, i32)> {
+    let tol = pow2(-frac - 1);
+    // c·2^-e ∈ [1, 2); from k = -e - 1 on, m = round(c·2^k) is at least 1.
+    let e = c.abs().log2().floor() as i32;
+    for kk in (-e - 1)..(-e + 62) {
+        // c·2^kk in two steps, so that neither factor over- or underflows.
+        let mm = (c * pow2(kk / 2) * pow2(kk - kk / 2)).round();
+        if mm.abs() >= pow2(62) {
+            return None;
+        }
+        let (mut m, mut k) = (mm as i128, kk);
+        if (c - mm * pow2(-kk / 2) * pow2(-(kk - kk / 2))).abs() * mx <= tol {
+            while m != 0 && m % 2 == 0 {
+                m /= 2;
+                k -= 1;
+            }
+            return Some((m, k));
+        }
+    }
+    None
+}
+
+/// The error for a constant factor whose product cannot be held in 64-bit arithmetic.
+fn too_wide_product(c: f64, span: Span) -> Diag {
+    Diag::new(
+        span,
+        format!(
+            "the product with {} cannot be computed in 64-bit arithmetic at the precision qloop \
+             guarantees (the constant quantised within half an LSB of the other factor)",
+            crate::text::g(c)
+        ),
+    )
+    .help("narrow the other factor's range, or change units so that the constant is closer to 1")
+}
