@@ -1,8 +1,7 @@
 //! A run's raw results and reading them from the simulator's output lines.
 
-use super::failed;
 use super::variants::Variant;
-use crate::Fail;
+use crate::cli::error::{CliError, CliResult};
 
 /// A run's raw results: cost and raw outputs per step.
 pub(super) struct Measured {
@@ -22,27 +21,27 @@ impl Measured {
     }
 }
 
-pub(super) fn malformed(line: &str) -> Fail {
-    failed(format!("malformed line from the simulator: `{line}`"))
+pub(super) fn malformed(line: &str) -> CliError {
+    CliError::tool(format!("malformed line from the simulator: `{line}`"))
 }
 
-pub(super) fn num(s: &str, line: &str) -> Result<u64, Fail> {
+pub(super) fn num(s: &str, line: &str) -> CliResult<u64> {
     s.parse().map_err(|_| malformed(line))
 }
 
-pub(super) fn hex(s: &str, line: &str) -> Result<i64, Fail> {
+pub(super) fn hex(s: &str, line: &str) -> CliResult<i64> {
     u64::from_str_radix(s, 16)
         .map(|u| u as i64)
         .map_err(|_| malformed(line))
 }
 
-pub(super) fn check_counts(m: &Measured, v: &Variant, steps: usize, out: &str) -> Result<(), Fail> {
+pub(super) fn check_counts(m: &Measured, v: &Variant, steps: usize, out: &str) -> CliResult {
     if m.cost.len() != steps
         || m.outs.len() != steps
         || m.outs.iter().any(|o| o.len() != v.outputs.len())
     {
         let tail: Vec<&str> = out.lines().rev().take(5).collect();
-        return Err(failed(format!(
+        return Err(CliError::tool(format!(
             "variant `{}`: the simulator reported {} timed steps and {} output records for {} steps \
              of {} outputs; last lines:\n{}",
             v.name,

@@ -1,0 +1,10 @@
+//! `qloop targets`: the built-in cost-model targets.
+
+use super::error::CliResult;
+use qloop::Target;
+
+/// Prints the table of built-in targets.
+pub fn run() -> CliResult {
+    print!("{}", qloop::report::targets_table(&Target::builtin()));
+    Ok(())
+}
