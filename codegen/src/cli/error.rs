@@ -23,7 +23,9 @@ pub const FAILED: u8 = 1;
 /// Exit code for bad input or usage.
 pub const BAD_INPUT: u8 = 2;
 
-/// Why a command did not succeed; see the module docs for the exit codes.
+/// Why a command did not succeed. Exit code 2 (bad input or usage): `Args`, `Spec`,
+/// `Unreadable`, `Input`, `Output`; exit code 1 (a claim does not hold, or a tool failed):
+/// `Failed`, `Tool`. The table in the module docs says which failure is which.
 #[derive(Debug)]
 pub enum CliError {
     /// The command line did not parse (unknown flag, bad value), or `--help` / `--version`
