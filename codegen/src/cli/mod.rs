@@ -1,7 +1,27 @@
-//! The closed-loop side of the command line: compiling a spec's generated code for the runner
-//! ([`jit`]), single runs ([`sim`]) and Monte-Carlo sweeps ([`sweep`]).
+//! The `qloop` command line: one module per command, the clap definition ([`args`]), the one
+//! error type and its exit codes ([`error`]), and the shared loading and writing ([`files`]).
+//!
+//! | command | module |
+//! |---|---|
+//! | `check` | [`check`] |
+//! | `gen` | [`gen`] |
+//! | `prove` | [`prove`] |
+//! | `sim` | [`sim`] (compiling the generated Rust for it: [`jit`]) |
+//! | `sweep` | [`sweep`], its report [`sweep_report`] |
+//! | `demo` | [`demo`] |
+//! | `bench` | [`bench`] |
+//! | `targets` | [`targets`] |
 
+pub mod args;
 pub mod bench;
+pub mod check;
+pub mod demo;
+pub mod error;
+pub mod files;
+pub mod gen;
 pub mod jit;
+pub mod prove;
 pub mod sim;
 pub mod sweep;
+pub mod sweep_report;
+pub mod targets;

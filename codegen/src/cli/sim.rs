@@ -1,12 +1,13 @@
 //! `qloop sim`: one closed-loop run of a spec's compiled controller (fixed-point and f64
 //! reference) on a built-in plant and scenario; writes the trace, plots and a summary.
 
+use super::error::{CliError, CliResult};
+use super::files::{create_dir, load, write_atomic};
 use super::jit::{self, Compiled};
-use crate::Fail;
 use qloop::Plan;
 use qloop_plant::metrics::metrics_noisy;
 use qloop_plant::metrics::Segment;
-use qloop_plant::{catalog, plot, run, Metrics, Plant, RunConfig, Scenario, Trace};
+use qloop_plant::{catalog, plot, Metrics, Plant, RunConfig, Scenario, Trace};
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
@@ -34,13 +35,38 @@ pub struct SimResult {
     pub summary: String,
 }
 
-fn fail(msg: impl std::fmt::Display) -> Fail {
-    eprintln!("error: {msg}");
-    Fail(2)
+/// `qloop sim SPEC`: loads the spec for `target`, runs it on `plant` in `scenario`, writes
+/// into `out` and prints the summary and the files written.
+pub fn run(
+    spec: &Path,
+    target: &str,
+    plant: &str,
+    scenario: &str,
+    out: &Path,
+    substeps: usize,
+) -> CliResult {
+    let (plan, _) = load(spec, target)?;
+    let r = sim(&SimArgs {
+        plan: &plan,
+        plant,
+        scenario,
+        out,
+        substeps: substeps.max(1),
+    })?;
+    print_run(&r);
+    Ok(())
+}
+
+/// Prints a run's summary and the files it wrote.
+pub fn print_run(r: &SimResult) {
+    print!("{}", r.summary);
+    for f in &r.files {
+        println!("wrote {}", f.display());
+    }
 }
 
 /// Compiles the spec (cached) with a note on standard error.
-pub fn compile(plan: &Plan) -> Result<Compiled, Fail> {
+pub fn compile(plan: &Plan) -> CliResult<Compiled> {
     eprintln!(
         "compiling the generated controller `{}` (rustc, release; cached after the first run) ...",
         plan.prog.name
@@ -55,7 +81,7 @@ pub fn simulate(
     sc: &Scenario,
     substeps: usize,
 ) -> Result<(Trace, Metrics), String> {
-    let trace = run(
+    let trace = qloop_plant::run(
         plant,
         compiled.fixed(),
         compiled.reference(),
@@ -77,13 +103,15 @@ pub fn simulate(
     Ok((trace, m))
 }
 
-/// `qloop sim`.
-pub fn sim(a: &SimArgs) -> Result<SimResult, Fail> {
-    let plant = catalog::plant_named(a.plant).map_err(fail)?;
-    let sc = catalog::scenario(a.plant, a.scenario).map_err(fail)?;
+/// One closed-loop run of `a.plan`: compiles it, runs it and writes the results.
+pub fn sim(a: &SimArgs) -> CliResult<SimResult> {
+    let plant = catalog::plant_named(a.plant).map_err(CliError::input)?;
+    let sc = catalog::scenario(a.plant, a.scenario).map_err(CliError::input)?;
     let compiled = compile(a.plan)?;
-    qloop_plant::runner::check_binding(plant.as_ref(), compiled.fixed().as_ref()).map_err(fail)?;
-    let (trace, m) = simulate(&compiled, plant.as_ref(), &sc, a.substeps).map_err(fail)?;
+    qloop_plant::runner::check_binding(plant.as_ref(), compiled.fixed().as_ref())
+        .map_err(CliError::input)?;
+    let (trace, m) =
+        simulate(&compiled, plant.as_ref(), &sc, a.substeps).map_err(CliError::input)?;
     write_run(a, &compiled, plant.as_ref(), &sc, trace, m)
 }
 
@@ -95,14 +123,11 @@ pub fn write_run(
     sc: &Scenario,
     trace: Trace,
     m: Metrics,
-) -> Result<SimResult, Fail> {
-    std::fs::create_dir_all(a.out).map_err(|e| {
-        eprintln!("error: cannot create `{}`: {e}", a.out.display());
-        Fail(1)
-    })?;
+) -> CliResult<SimResult> {
+    create_dir(a.out)?;
     let mut files = Vec::new();
     let csv = a.out.join("trace.csv");
-    crate::write_atomic(&csv, &trace.to_csv())?;
+    write_atomic(&csv, &trace.to_csv())?;
     files.push(csv);
     let title = format!(
         "{} on the {} plant, scenario {}: fixed-point (compiled) and f64 reference",
@@ -112,24 +137,19 @@ pub fn write_run(
     let stem = format!("{}-{}-{}", a.plan.prog.name, a.plant, sc.name);
     let svg = a.out.join(format!("{stem}.svg"));
     let png = a.out.join(format!("{stem}.png"));
-    plot::write_svg(&fig, &svg).map_err(|e| fail_io(&e))?;
-    plot::write_png(&fig, &png).map_err(|e| fail_io(&e))?;
+    plot::write_svg(&fig, &svg).map_err(CliError::Output)?;
+    plot::write_png(&fig, &png).map_err(CliError::Output)?;
     files.push(svg);
     files.push(png);
     let summary = summary(a, sc, &trace, &m, compiled.signals());
     let txt = a.out.join("summary.txt");
-    crate::write_atomic(&txt, &summary)?;
+    write_atomic(&txt, &summary)?;
     files.push(txt);
     Ok(SimResult {
         metrics: m,
         files,
         summary,
     })
-}
-
-fn fail_io(e: &str) -> Fail {
-    eprintln!("error: {e}");
-    Fail(1)
 }
 
 fn osc(s: &Segment) -> String {

@@ -2,13 +2,124 @@
 //! scenarios, on every core (rayon), with a progress bar; reports the worst case of each
 //! metric and the seed that reproduces it (`qloop sweep ... --replay SEED`).
 
+use super::error::{CliError, CliResult};
+use super::files::{load, write_atomic};
 use super::jit::Compiled;
-use super::sim;
-use crate::Fail;
-use qloop_plant::sweep::{draw, draw_seed, Envelope, Outcome, Worst};
-use qloop_plant::{catalog, Plant, Scenario};
+use super::sim::{self, print_run, SimArgs};
+use super::sweep_report::report;
+use qloop::Plan;
+use qloop_plant::sweep::{draw, draw_seed, Draw, Envelope, Outcome};
+use qloop_plant::{catalog, Metrics, Plant, Scenario, Trace};
 use rayon::prelude::*;
-use std::fmt::Write;
+use std::path::Path;
+use std::time::Instant;
+
+/// `qloop sweep` as given on the command line.
+pub struct SweepCommand<'a> {
+    /// The spec file.
+    pub spec: &'a Path,
+    /// `--target`.
+    pub target: &'a str,
+    /// `--plant`.
+    pub plant: &'a str,
+    /// `--scenario`s (empty: every built-in scenario of the plant).
+    pub scenarios: &'a [String],
+    /// `--draws`.
+    pub draws: u64,
+    /// `--seed`.
+    pub seed: u64,
+    /// `--jobs` (default: every core).
+    pub jobs: Option<usize>,
+    /// `--replay SEED`.
+    pub replay: Option<u64>,
+    /// `--out DIR` for `--replay`.
+    pub out: &'a Path,
+    /// `--report FILE`.
+    pub report: Option<&'a Path>,
+    /// `--substeps`.
+    pub substeps: usize,
+}
+
+/// Runs the sweep and prints its report, or with `--replay` one draw as `qloop sim` would.
+pub fn run(c: &SweepCommand) -> CliResult {
+    let (plan, _) = load(c.spec, c.target)?;
+    let a = SweepArgs {
+        spec: &plan.prog.name,
+        plant: c.plant,
+        scenarios: c.scenarios,
+        draws: c.draws,
+        seed: c.seed,
+        substeps: c.substeps.max(1),
+    };
+    // Bad plant or scenario names fail before the controller is compiled.
+    catalog::plant_named(a.plant).map_err(CliError::input)?;
+    scenarios(a.plant, a.scenarios)?;
+    let compiled = sim::compile(&plan)?;
+    match c.replay {
+        Some(seed) => run_replay(&plan, &a, &compiled, seed, c.out),
+        None => run_sweep(&a, &compiled, c.jobs, c.report),
+    }
+}
+
+/// `--replay SEED`: the draw's parameters, then its run as `qloop sim` prints it.
+fn run_replay(plan: &Plan, a: &SweepArgs, compiled: &Compiled, seed: u64, out: &Path) -> CliResult {
+    let (d, trace, m) = replay(a, compiled, seed)?;
+    let args = SimArgs {
+        plan,
+        plant: a.plant,
+        scenario: &d.scenario.name,
+        out,
+        substeps: a.substeps,
+    };
+    let params: Vec<String> = d.params.iter().map(|(n, v)| format!("{n}={v}")).collect();
+    println!(
+        "draw {seed:#018x}: scenario {} (noise seed {}), {}",
+        d.scenario.name,
+        d.scenario.seed,
+        params.join(" ")
+    );
+    let r = sim::write_run(&args, compiled, d.plant.as_ref(), &d.scenario, trace, m)?;
+    print_run(&r);
+    Ok(())
+}
+
+/// The sweep on `jobs` threads: prints the report (and writes it to `report_file`).
+fn run_sweep(
+    a: &SweepArgs,
+    compiled: &Compiled,
+    jobs: Option<usize>,
+    report_file: Option<&Path>,
+) -> CliResult {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs.unwrap_or(0))
+        .build()
+        .map_err(|e| CliError::tool(format!("cannot start worker threads: {e}")))?;
+    let start = Instant::now();
+    let env = pool.install(|| sweep(a, compiled))?;
+    let secs = start.elapsed().as_secs_f64();
+    let nominal = catalog::plant_named(a.plant).map_err(CliError::input)?;
+    let scs = scenarios(a.plant, a.scenarios)?;
+    let sig = compiled.signals().clone();
+    let units = |name: &str| {
+        sig.states
+            .iter()
+            .chain(&sig.outputs)
+            .find(|s| s.0 == name)
+            .map_or(String::new(), |s| s.1.to_string())
+    };
+    let mut text = report(a, nominal.as_ref(), &scs, &env, sig.inputs[0].1, &units);
+    text.push_str(&format!(
+        "\n{} draws in {secs:.1} s on {} threads ({:.0} draws/s)\n",
+        env.draws,
+        pool.current_num_threads(),
+        env.draws as f64 / secs.max(1e-9)
+    ));
+    print!("{text}");
+    if let Some(p) = report_file {
+        write_atomic(p, &text)?;
+    }
+    Ok(())
+}
 
 /// What `qloop sweep` was asked to do.
 pub struct SweepArgs<'a> {
@@ -26,19 +137,14 @@ pub struct SweepArgs<'a> {
     pub substeps: usize,
 }
 
-fn fail(msg: impl std::fmt::Display) -> Fail {
-    eprintln!("error: {msg}");
-    Fail(2)
-}
-
 /// The scenarios a sweep draws from.
-pub fn scenarios(plant: &str, names: &[String]) -> Result<Vec<Scenario>, Fail> {
+pub fn scenarios(plant: &str, names: &[String]) -> CliResult<Vec<Scenario>> {
     if names.is_empty() {
         return Ok(catalog::scenarios_of(plant));
     }
     names
         .iter()
-        .map(|n| catalog::scenario(plant, n).map_err(fail))
+        .map(|n| catalog::scenario(plant, n).map_err(CliError::input))
         .collect()
 }
 
@@ -56,11 +162,11 @@ fn one(
 }
 
 /// Runs the sweep and returns its envelope.
-pub fn sweep(a: &SweepArgs, compiled: &Compiled) -> Result<Envelope, Fail> {
-    let nominal = catalog::plant_named(a.plant).map_err(fail)?;
+pub fn sweep(a: &SweepArgs, compiled: &Compiled) -> CliResult<Envelope> {
+    let nominal = catalog::plant_named(a.plant).map_err(CliError::input)?;
     let scs = scenarios(a.plant, a.scenarios)?;
     qloop_plant::runner::check_binding(nominal.as_ref(), compiled.fixed().as_ref())
-        .map_err(fail)?;
+        .map_err(CliError::input)?;
     let bar = indicatif::ProgressBar::new(a.draws);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
@@ -90,133 +196,15 @@ pub fn sweep(a: &SweepArgs, compiled: &Compiled) -> Result<Envelope, Fail> {
         })
         .try_reduce(Envelope::default, |x, y| Ok(x.merge(y)));
     bar.finish_and_clear();
-    env.map_err(fail)
-}
-
-fn params(o: &Outcome) -> String {
-    o.params
-        .iter()
-        .map(|(n, v)| format!("{n}={v:.4}"))
-        .collect::<Vec<_>>()
-        .join(" ")
-}
-
-fn row(s: &mut String, metric: &str, w: &Worst, fmt: &dyn Fn(f64) -> String) {
-    let _ = writeln!(
-        s,
-        "| {metric} | {} | {:#018x} | {} | {} |",
-        fmt(w.value),
-        w.outcome.seed,
-        w.outcome.scenario,
-        params(&w.outcome)
-    );
-}
-
-/// The sweep report.
-pub fn report(
-    a: &SweepArgs,
-    nominal: &dyn Plant,
-    scs: &[Scenario],
-    e: &Envelope,
-    unit: &str,
-    units: &dyn Fn(&str) -> String,
-) -> String {
-    let mut s = String::new();
-    let names: Vec<&str> = scs.iter().map(|s| s.name.as_str()).collect();
-    let _ = writeln!(
-        s,
-        "qloop sweep: {} on the {} plant, {} draws (seed {}) over scenarios {}",
-        a.spec,
-        a.plant,
-        e.draws,
-        a.seed,
-        names.join(", ")
-    );
-    let _ = writeln!(s, "parameters, drawn uniformly:");
-    for p in nominal.params() {
-        let _ = writeln!(
-            s,
-            "  {:<12} [{:.4}, {:.4}] (nominal {:.4}): {}",
-            p.name, p.range.0, p.range.1, p.value, p.why
-        );
-    }
-    let _ = writeln!(
-        s,
-        "\nstable: fixed-point {}/{}, f64 reference {}/{}; the two loops disagree on {} draws",
-        e.draws - e.unstable,
-        e.draws,
-        e.draws - e.unstable_ref,
-        e.draws,
-        e.disagree
-    );
-    if let Some(u) = &e.first_unstable {
-        let _ = writeln!(
-            s,
-            "first unstable draw: seed {:#018x}, {} at {:.2} Hz, {}",
-            u.seed,
-            u.scenario,
-            u.osc_hz.unwrap_or(0.0),
-            params(u)
-        );
-    }
-    let _ = writeln!(
-        s,
-        "\nworst cases over the stable draws (fixed-point loop):\n\n| metric | worst | draw seed | scenario | parameters |\n|---|---|---|---|---|"
-    );
-    if let Some(w) = &e.ss_error {
-        row(
-            &mut s,
-            &format!("steady-state error, abs ({unit})"),
-            w,
-            &|v| format!("{v:.4}"),
-        );
-    }
-    if let Some(w) = &e.overshoot {
-        row(&mut s, "overshoot", w, &|v| format!("{:.1}%", 100.0 * v));
-    }
-    if let Some(w) = &e.settling_s {
-        row(&mut s, "settling ±5% (s)", w, &|v| {
-            if v.is_finite() {
-                format!("{v:.2}")
-            } else {
-                "never".into()
-            }
-        });
-    }
-    for (name, w) in &e.max_diff {
-        let u = units(name);
-        row(
-            &mut s,
-            &format!("fixed − f64 {name}, max abs ({u})"),
-            w,
-            &|v| format!("{v:.3e}"),
-        );
-    }
-    let _ = writeln!(
-        s,
-        "\nreplay a draw: qloop sweep SPEC --plant {} --replay SEED --out DIR",
-        a.plant
-    );
-    s
+    env.map_err(CliError::input)
 }
 
 /// Replays one draw as `qloop sim` would (trace, plots, summary in `out`).
-pub fn replay(
-    a: &SweepArgs,
-    compiled: &Compiled,
-    seed: u64,
-) -> Result<
-    (
-        qloop_plant::sweep::Draw,
-        qloop_plant::Trace,
-        qloop_plant::Metrics,
-    ),
-    Fail,
-> {
-    let nominal = catalog::plant_named(a.plant).map_err(fail)?;
+pub fn replay(a: &SweepArgs, compiled: &Compiled, seed: u64) -> CliResult<(Draw, Trace, Metrics)> {
+    let nominal = catalog::plant_named(a.plant).map_err(CliError::input)?;
     let scs = scenarios(a.plant, a.scenarios)?;
-    let d = draw(nominal.as_ref(), &scs, seed).map_err(fail)?;
-    let (trace, m) =
-        sim::simulate(compiled, d.plant.as_ref(), &d.scenario, a.substeps).map_err(fail)?;
+    let d = draw(nominal.as_ref(), &scs, seed).map_err(CliError::input)?;
+    let (trace, m) = sim::simulate(compiled, d.plant.as_ref(), &d.scenario, a.substeps)
+        .map_err(CliError::input)?;
     Ok((d, trace, m))
 }

@@ -1,11 +1,10 @@
 //! The AVR under simavr: the firmware's `bench_io.h`, the cycle runner
 //! (`targets/avr/cycles.c`, built on first use into the cache) and a run of a variant's ELF.
 
-use super::failed;
 use super::host::{mkdir, need_tool, run_limited, write_file};
 use super::measured::{check_counts, malformed, num, Measured};
 use super::variants::Variant;
-use crate::Fail;
+use crate::cli::error::{CliError, CliResult};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -106,7 +105,7 @@ fn sha_key(text: &str) -> String {
 }
 
 /// The simavr cycle runner (`targets/avr/cycles.c`), compiled with the host `cc` on first use.
-pub(super) fn runner() -> Result<PathBuf, Fail> {
+pub(super) fn runner() -> CliResult<PathBuf> {
     let dir = cache_dir();
     let exe = dir.join(format!("simavr-cycles-{}", sha_key(CYCLES_C)));
     if exe.is_file() {
@@ -143,11 +142,11 @@ pub(super) fn runner() -> Result<PathBuf, Fail> {
             .arg(&tmp)
             .args(libs)
             .output()
-            .map_err(|e| failed(format!("cannot run the host `cc`: {e}")))?;
+            .map_err(|e| CliError::tool(format!("cannot run the host `cc`: {e}")))?;
         if out.status.success() {
             let _ = std::fs::remove_file(&src);
             std::fs::rename(&tmp, &exe).map_err(|e| {
-                failed(format!(
+                CliError::tool(format!(
                     "cannot move the runner to `{}`: {e}",
                     exe.display()
                 ))
@@ -162,14 +161,14 @@ pub(super) fn runner() -> Result<PathBuf, Fail> {
         );
     }
     let _ = std::fs::remove_file(&src);
-    Err(failed(format!(
+    Err(CliError::tool(format!(
         "cannot build the simavr cycle runner (targets/avr/cycles.c) with the host `cc`; \
          install simavr and libsimavr-dev (Debian: apt-get install simavr libsimavr-dev libelf-dev):\n{errors}"
     )))
 }
 
 /// Runs the ELF in simavr; exact cycles per step and the reported outputs.
-pub(super) fn run(runner: &Path, elf: &Path, v: &Variant, steps: usize) -> Result<Measured, Fail> {
+pub(super) fn run(runner: &Path, elf: &Path, v: &Variant, steps: usize) -> CliResult<Measured> {
     let dir = elf.parent().unwrap_or(Path::new("."));
     let (status, out, err) = run_limited(
         Command::new(runner).arg(elf),
@@ -178,7 +177,7 @@ pub(super) fn run(runner: &Path, elf: &Path, v: &Variant, steps: usize) -> Resul
         &dir.join("simavr.err"),
     )?;
     if !status.success() {
-        return Err(failed(format!(
+        return Err(CliError::tool(format!(
             "simavr run of variant `{}` failed ({status}):\n{}",
             v.name,
             err.trim_end()

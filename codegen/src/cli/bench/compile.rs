@@ -3,8 +3,8 @@
 use super::host::{mkdir, write_file};
 use super::platform::Platform;
 use super::variants::{main_c, Variant};
-use super::{arm, avr, failed, riscv, text_io};
-use crate::Fail;
+use super::{arm, avr, riscv, text_io};
+use crate::cli::error::{CliError, CliResult};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -14,7 +14,7 @@ pub(super) fn build(
     t: &qloop::Target,
     pf: &Platform,
     dir: &Path,
-) -> Result<PathBuf, Fail> {
+) -> CliResult<PathBuf> {
     mkdir(dir)?;
     for (name, text) in &v.files {
         write_file(&dir.join(name), text)?;
@@ -56,7 +56,7 @@ pub(super) fn build(
     let shown = format!("{cc} {}", t.toolchain.cflags.join(" "));
     let out = cmd
         .output()
-        .map_err(|e| failed(format!("cannot run `{cc}`: {e}")))?;
+        .map_err(|e| CliError::tool(format!("cannot run `{cc}`: {e}")))?;
     if !out.status.success() {
         let err = String::from_utf8_lossy(&out.stderr);
         let hint = if err.contains("overflow") {
@@ -64,7 +64,7 @@ pub(super) fn build(
         } else {
             ""
         };
-        return Err(failed(format!(
+        return Err(CliError::tool(format!(
             "compiling variant `{}` with `{shown} -std=c99 -Wall -Wextra -Werror` failed \
              (files in `{}`):\n{}{hint}",
             v.name,

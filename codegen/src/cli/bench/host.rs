@@ -1,7 +1,6 @@
 //! The host side: checking and running tools (with a time limit) and writing files.
 
-use super::failed;
-use crate::Fail;
+use crate::cli::error::{CliError, CliResult};
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -10,7 +9,7 @@ use std::time::{Duration, Instant};
 const RUN_LIMIT: Duration = Duration::from_secs(600);
 
 /// Fails with an install hint unless `prog --version` runs.
-pub(super) fn need_tool(prog: &str, hint: &str) -> Result<(), Fail> {
+pub(super) fn need_tool(prog: &str, hint: &str) -> CliResult {
     match Command::new(prog)
         .arg("--version")
         .stdout(Stdio::null())
@@ -18,18 +17,20 @@ pub(super) fn need_tool(prog: &str, hint: &str) -> Result<(), Fail> {
         .status()
     {
         Ok(_) => Ok(()),
-        Err(e) => Err(failed(format!(
+        Err(e) => Err(CliError::tool(format!(
             "`{prog}` cannot be run ({e}); `qloop bench` needs it: {hint}"
         ))),
     }
 }
 
-pub(super) fn write_file(p: &Path, text: &str) -> Result<(), Fail> {
-    crate::write_atomic(p, text)
+/// Writes a build file (atomically).
+pub(super) fn write_file(p: &Path, text: &str) -> CliResult {
+    crate::cli::files::write_atomic(p, text)
 }
 
-pub(super) fn mkdir(p: &Path) -> Result<(), Fail> {
-    std::fs::create_dir_all(p).map_err(|e| failed(format!("cannot create `{}`: {e}", p.display())))
+/// Creates a build directory.
+pub(super) fn mkdir(p: &Path) -> CliResult {
+    crate::cli::files::create_dir(p)
 }
 
 /// Runs `cmd` with its output in files, killing it after [`RUN_LIMIT`].
@@ -38,17 +39,14 @@ pub(super) fn run_limited(
     what: &str,
     out: &Path,
     err: &Path,
-) -> Result<(std::process::ExitStatus, String, String), Fail> {
-    let open = |p: &Path| {
-        std::fs::File::create(p)
-            .map_err(|e| failed(format!("cannot create `{}`: {e}", p.display())))
-    };
+) -> CliResult<(std::process::ExitStatus, String, String)> {
+    let open = |p: &Path| std::fs::File::create(p).map_err(|e| CliError::cannot_create(p, e));
     let mut child = cmd
         .stdin(Stdio::null())
         .stdout(open(out)?)
         .stderr(open(err)?)
         .spawn()
-        .map_err(|e| failed(format!("cannot start {what}: {e}")))?;
+        .map_err(|e| CliError::tool(format!("cannot start {what}: {e}")))?;
     let start = Instant::now();
     let status = loop {
         match child.try_wait() {
@@ -56,14 +54,14 @@ pub(super) fn run_limited(
             Ok(None) if start.elapsed() > RUN_LIMIT => {
                 let _ = child.kill();
                 let _ = child.wait();
-                return Err(failed(format!(
+                return Err(CliError::tool(format!(
                     "{what} did not finish within {} s (killed); output in `{}`",
                     RUN_LIMIT.as_secs(),
                     err.display()
                 )));
             }
             Ok(None) => std::thread::sleep(Duration::from_millis(10)),
-            Err(e) => return Err(failed(format!("waiting for {what}: {e}"))),
+            Err(e) => return Err(CliError::tool(format!("waiting for {what}: {e}"))),
         }
     };
     let read = |p: &Path| std::fs::read_to_string(p).unwrap_or_default();

@@ -58,7 +58,8 @@ mod riscv;
 mod text_io;
 mod variants;
 
-use crate::Fail;
+use super::error::{CliError, CliResult};
+use super::files::{load, plan_for};
 use host::need_tool;
 use measured::Measured;
 use platform::{platform, Platform};
@@ -86,24 +87,36 @@ pub struct BenchArgs<'a> {
     pub work_dir: Option<&'a Path>,
 }
 
-fn bad(msg: impl std::fmt::Display) -> Fail {
-    eprintln!("error: {msg}");
-    Fail(2)
-}
-
-fn failed(msg: impl std::fmt::Display) -> Fail {
-    eprintln!("error: {msg}");
-    Fail(1)
+/// `qloop bench SPEC --target T`: plans the spec for the target and for its always-multiply
+/// variant, then runs [`bench`].
+pub fn run(
+    spec: &Path,
+    target: &str,
+    json: Option<&Path>,
+    steps: u32,
+    check_goals: bool,
+    work_dir: Option<&Path>,
+) -> CliResult {
+    let (plan, _) = load(spec, target)?;
+    let plain = plan_for(spec, &plan.target.always_multiply())?;
+    bench(&BenchArgs {
+        plan: &plan,
+        plain: &plain,
+        steps: steps as usize,
+        json,
+        check_goals,
+        work_dir,
+    })
 }
 
 /// Runs the benchmark and prints its table; see the module docs.
-pub fn bench(a: &BenchArgs) -> Result<(), Fail> {
+pub fn bench(a: &BenchArgs) -> CliResult {
     let start = Instant::now();
     let plan = a.plan;
     let t = &plan.target;
     let pf = platform(t)?;
     if a.steps == 0 {
-        return Err(bad("`--steps` must be at least 1"));
+        return Err(CliError::input("`--steps` must be at least 1"));
     }
     let cc = t.toolchain.cc.clone().unwrap_or_default();
     match &pf {
@@ -192,7 +205,7 @@ pub fn bench(a: &BenchArgs) -> Result<(), Fail> {
                     qemu::run(&elf, &pf, v, a.steps)
                 }
                 (Platform::Avr, Some(r)) => avr::run(r, &elf, v, a.steps),
-                (Platform::Avr, None) => Err(failed("internal: no simavr runner")),
+                (Platform::Avr, None) => Err(CliError::tool("internal: no simavr runner")),
             }
         });
         match r {
@@ -205,10 +218,10 @@ pub fn bench(a: &BenchArgs) -> Result<(), Fail> {
                 );
                 results.push(m);
             }
-            Err(f) => {
-                eprintln!("note: build files kept in `{}`", work.display());
-                return Err(f);
+            Err(e) if work.is_dir() => {
+                return Err(e.with_note(format!("build files kept in `{}`", work.display())));
             }
+            Err(e) => return Err(e),
         }
     }
 
@@ -224,13 +237,14 @@ pub fn bench(a: &BenchArgs) -> Result<(), Fail> {
         start.elapsed().as_secs_f64()
     );
     if !identical {
-        return Err(failed(
+        return Err(CliError::failed(
             "qloop and plain_mul outputs differ (see above); the cost comparison is void",
         ));
     }
     if a.check_goals && !all_met {
-        eprintln!("error: --check-goals: a goal is not met (see above)");
-        return Err(Fail(1));
+        return Err(CliError::failed(
+            "--check-goals: a goal is not met (see above)",
+        ));
     }
     Ok(())
 }

@@ -1,8 +1,7 @@
 //! Which platform measures a target: simavr, QEMU on Cortex-M or QEMU on RV32, from the
 //! target's toolchain.
 
-use super::bad;
-use crate::Fail;
+use crate::cli::error::{CliError, CliResult};
 use std::fmt::Write as _;
 
 /// How a target's code is run and measured.
@@ -50,11 +49,11 @@ impl Platform {
 }
 
 /// Which platform measures `target`, or what its toolchain lacks.
-pub(super) fn platform(t: &qloop::Target) -> Result<Platform, Fail> {
+pub(super) fn platform(t: &qloop::Target) -> CliResult<Platform> {
     let supported =
         "atmega328p (simavr), cortex-m0, cortex-m0-slowmul, cortex-m4, rv32i and rv32imc (QEMU)";
     let Some(cc) = &t.toolchain.cc else {
-        return Err(bad(format!(
+        return Err(CliError::input(format!(
             "target `{}` has no C compiler in its toolchain (`[toolchain] cc` in its target \
              file), so `qloop bench` cannot build its code; targets it can measure: {supported}",
             t.name
@@ -71,7 +70,7 @@ pub(super) fn platform(t: &qloop::Target) -> Result<Platform, Fail> {
             "microbit" => ("256K", "16K"),
             "mps2-an386" => ("4M", "4M"),
             other => {
-                return Err(bad(format!(
+                return Err(CliError::input(format!(
                     "target `{}`: `qloop bench` has no memory map for QEMU machine `{other}` \
                      (known: microbit, mps2-an386; virt for RISC-V)",
                     t.name
@@ -79,7 +78,7 @@ pub(super) fn platform(t: &qloop::Target) -> Result<Platform, Fail> {
             }
         };
         if !cc.contains("arm") {
-            return Err(bad(format!(
+            return Err(CliError::input(format!(
                 "target `{}`: QEMU machine `{m}` needs an ARM compiler, the toolchain names `{cc}`",
                 t.name
             )));
@@ -90,7 +89,7 @@ pub(super) fn platform(t: &qloop::Target) -> Result<Platform, Fail> {
             ram,
         });
     }
-    Err(bad(format!(
+    Err(CliError::input(format!(
         "target `{}` names no simulator in its toolchain (`simulator = \"simavr\"` or \
          `qemu_machine`), so `qloop bench` cannot run its code; targets it can measure: \
          {supported}",
@@ -100,16 +99,16 @@ pub(super) fn platform(t: &qloop::Target) -> Result<Platform, Fail> {
 
 /// The RISC-V platform: machine `virt`, a `riscv*` compiler and an RV32 `-march` in the cflags,
 /// whose extensions give QEMU's `-cpu`.
-fn riscv_platform(t: &qloop::Target, cc: &str, m: &str) -> Result<Platform, Fail> {
+fn riscv_platform(t: &qloop::Target, cc: &str, m: &str) -> CliResult<Platform> {
     if m != "virt" {
-        return Err(bad(format!(
+        return Err(CliError::input(format!(
             "target `{}`: `qloop bench` runs RISC-V code on QEMU machine `virt` only, the \
              toolchain names `{m}`",
             t.name
         )));
     }
     if !cc.contains("riscv") {
-        return Err(bad(format!(
+        return Err(CliError::input(format!(
             "target `{}`: QEMU machine `virt` needs a RISC-V compiler, the toolchain names `{cc}`",
             t.name
         )));
@@ -121,7 +120,7 @@ fn riscv_platform(t: &qloop::Target, cc: &str, m: &str) -> Result<Platform, Fail
         .find_map(|f| f.strip_prefix("-march="))
         .unwrap_or("");
     let cpu = riscv_cpu(march).ok_or_else(|| {
-        bad(format!(
+        CliError::input(format!(
             "target `{}`: `qloop bench` needs an RV32 `-march=rv32...` in `[toolchain] cflags` \
              (it picks QEMU's -cpu from it), found `{}`",
             t.name,
@@ -134,7 +133,7 @@ fn riscv_platform(t: &qloop::Target, cc: &str, m: &str) -> Result<Platform, Fail
         .iter()
         .any(|f| f.starts_with("-mabi=ilp32"))
     {
-        return Err(bad(format!(
+        return Err(CliError::input(format!(
             "target `{}`: `qloop bench` needs `-mabi=ilp32` (or ilp32e/f/d) in `[toolchain] \
              cflags` next to `-march={march}`",
             t.name

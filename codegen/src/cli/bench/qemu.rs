@@ -1,17 +1,16 @@
 //! A run under QEMU with `-icount` (Cortex-M and RV32): the command line, the calibration
 //! and the instructions per step from the firmware's text lines.
 
-use super::failed;
 use super::host::run_limited;
 use super::measured::{check_counts, hex, Measured};
 use super::platform::Platform;
 use super::variants::Variant;
-use crate::Fail;
+use crate::cli::error::{CliError, CliResult};
 use std::path::Path;
 use std::process::Command;
 
 /// Runs the ELF under QEMU with `-icount`; instructions per step and the reported outputs.
-pub(super) fn run(elf: &Path, pf: &Platform, v: &Variant, steps: usize) -> Result<Measured, Fail> {
+pub(super) fn run(elf: &Path, pf: &Platform, v: &Variant, steps: usize) -> CliResult<Measured> {
     let dir = elf.parent().unwrap_or(Path::new("."));
     let (prog, mut cmd) = match pf {
         Platform::Riscv { machine, cpu } => {
@@ -40,14 +39,14 @@ pub(super) fn run(elf: &Path, pf: &Platform, v: &Variant, steps: usize) -> Resul
             .arg(elf);
             (prog, cmd)
         }
-        Platform::Avr => return Err(failed("internal: QEMU run of an AVR target")),
+        Platform::Avr => return Err(CliError::tool("internal: QEMU run of an AVR target")),
     };
     let (status, out, err) =
         run_limited(&mut cmd, prog, &dir.join("qemu.out"), &dir.join("qemu.err"))?;
     // Semihosting console output goes to stderr in QEMU 7; accept either stream.
     let text = format!("{out}\n{err}");
     if !status.success() || text.contains("qb fault") {
-        return Err(failed(format!(
+        return Err(CliError::tool(format!(
             "QEMU run of variant `{}` failed ({status}{}):\n{}",
             v.name,
             if text.contains("qb fault") {
@@ -80,7 +79,7 @@ pub(super) fn run(elf: &Path, pf: &Platform, v: &Variant, steps: usize) -> Resul
         }
     }
     let Some((empty, nop0, nop64)) = calib else {
-        return Err(failed(format!(
+        return Err(CliError::tool(format!(
             "variant `{}`: no calibration line from the firmware under QEMU:\n{}",
             v.name,
             text.trim()
@@ -88,7 +87,7 @@ pub(super) fn run(elf: &Path, pf: &Platform, v: &Variant, steps: usize) -> Resul
     };
     let per = nop64.saturating_sub(nop0) as f64 / 64.0;
     if per < 1.0 {
-        return Err(failed(format!(
+        return Err(CliError::tool(format!(
             "QEMU's {} did not advance with the instruction count (64 nops took {} ticks); \
              cannot count instructions (is -icount supported by this {prog}?)",
             if prog == "qemu-system-arm" {

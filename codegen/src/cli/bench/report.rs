@@ -5,7 +5,7 @@ use super::measured::Measured;
 use super::platform::Platform;
 use super::variants::{OutKind, Variant};
 use super::{BenchArgs, DIV_SPEC};
-use crate::Fail;
+use crate::cli::error::CliResult;
 use qloop::ir::{SigId, SigKind};
 use std::fmt::Write as _;
 
@@ -82,7 +82,7 @@ pub(super) fn summarize(
     pf: &Platform,
     variants: &[Variant],
     results: &[Measured],
-) -> Result<(bool, bool), Fail> {
+) -> CliResult<(bool, bool)> {
     let plan = a.plan;
     let t = &plan.target;
     let unit = pf.unit();
@@ -311,7 +311,7 @@ pub(super) fn summarize(
             "goals": goals.iter().map(|g| serde_json::json!({"goal": g.text, "met": g.met})).collect::<Vec<_>>(),
         });
         let text = serde_json::to_string_pretty(&json).unwrap_or_default() + "\n";
-        crate::write_atomic(path, &text)?;
+        crate::cli::files::write_atomic(path, &text)?;
         println!("\nwrote {}", path.display());
     }
     Ok((identical, all_met))

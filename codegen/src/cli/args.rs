@@ -1,0 +1,232 @@
+//! The command line's definition (clap): the commands, their flags and their documentation.
+
+use clap::{Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+
+#[derive(Parser)]
+#[command(
+    name = "qloop",
+    version,
+    about = "Compile adaptive machine-tool controllers to division-free fixed-point code",
+    long_about = "qloop compiles a declarative controller spec (*.qloop) into a Q-format \
+fixed-point update routine that uses only adds, subtracts, shifts, compares and, where the \
+target's cost model says it pays, a widening multiply. It never emits division or floating \
+point.\n\nExit codes: 0 ok; 1 a claim does not hold (an obligation refuted or unknown, a goal \
+not met) or a tool it needs is missing or failed; 2 bad input or usage (flags, spec, target, \
+plant or scenario, an output path that cannot be written)."
+)]
+/// The parsed command line.
+pub struct Cli {
+    // The command (no doc comment: clap would take it as help text).
+    #[command(subcommand)]
+    pub cmd: Cmd,
+}
+
+/// The commands; each runs in its own module of `cli`.
+#[derive(Subcommand)]
+pub enum Cmd {
+    /// Analyse a spec: print every signal's range, Q-format, LSB and one-step error bound.
+    Check {
+        /// The spec file (*.qloop).
+        spec: PathBuf,
+        /// Target: a built-in name (see `qloop targets`) or a target file (`*.toml`).
+        #[arg(long, default_value = "rv32i")]
+        target: String,
+    },
+    /// Generate code from a spec.
+    Gen {
+        /// The spec file (*.qloop).
+        spec: PathBuf,
+        /// Output language.
+        #[arg(long, value_enum, default_value_t = Lang::Rust)]
+        lang: Lang,
+        /// Write to this file (atomically) instead of standard output.
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Write into this directory (created if missing): `--lang c` NAME.h and NAME.c,
+        /// `--lang linuxcnc` qloop_NAME.comp.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Target: a built-in name (see `qloop targets`) or a target file (`*.toml`).
+        /// Default: rv32i; host for `--lang linuxcnc`.
+        #[arg(long)]
+        target: Option<String>,
+    },
+    /// Prove every obligation (overflow, initial, inductive, properties) with z3 and cvc5.
+    ///
+    /// Exit 0 only if everything is proved; 1 if anything is refuted or unknown.
+    Prove {
+        /// The spec file (*.qloop).
+        spec: PathBuf,
+        /// Also write the report as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Time limit for the whole proof, in seconds (default: none). At the limit, running
+        /// solvers are stopped and queries not yet started are not run: their obligations are
+        /// unknown.
+        #[arg(long)]
+        timeout: Option<u64>,
+        /// Time limit per solver per query, in seconds.
+        #[arg(long, default_value_t = 60)]
+        query_timeout: u64,
+        /// Solver processes at once (default: the number of cores).
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// Which solvers to run.
+        #[arg(long, value_enum, default_value_t = Solvers::Both)]
+        solvers: Solvers,
+        /// Verdict cache directory (default: $QLOOP_CACHE, else ~/.cache/qloop).
+        #[arg(long)]
+        cache: Option<PathBuf>,
+        /// Do not read or write the verdict cache.
+        #[arg(long)]
+        no_cache: bool,
+        /// Write each obligation's SMT-LIB 2 script into this directory.
+        #[arg(long)]
+        smt_dir: Option<PathBuf>,
+        /// Prove only the obligations whose name contains this text.
+        #[arg(long)]
+        only: Option<String>,
+        /// Target: a built-in name (see `qloop targets`) or a target file (`*.toml`).
+        #[arg(long, default_value = "rv32i")]
+        target: String,
+    },
+    /// Run the compiled controller (fixed-point and f64 reference) in closed loop on a
+    /// reference plant; write DIR/trace.csv, plots (SVG, PNG) and a summary.
+    ///
+    /// The generated Rust is compiled with cargo into a shared library (cached under
+    /// $QLOOP_CACHE or ~/.cache/qloop/sim) and called through its `step`, so the run
+    /// exercises the real routine.
+    Sim {
+        /// The spec file (*.qloop).
+        spec: PathBuf,
+        /// The plant: turning, milling or grinding.
+        #[arg(long, default_value = "turning")]
+        plant: String,
+        /// A built-in scenario of the plant, or a scenario TOML file.
+        #[arg(long, default_value = "depth-steps")]
+        scenario: String,
+        /// Output directory.
+        #[arg(long, default_value = "qloop-sim")]
+        out: PathBuf,
+        /// Plant integration substeps per controller period.
+        #[arg(long, default_value_t = 20)]
+        substeps: usize,
+        /// Target: a built-in name (see `qloop targets`) or a target file (`*.toml`).
+        #[arg(long, default_value = "rv32i")]
+        target: String,
+    },
+    /// Monte-Carlo envelope: closed-loop runs over drawn plant parameters and scenarios, on
+    /// every core, reporting the worst case of each metric and the seed that produced it.
+    Sweep {
+        /// The spec file (*.qloop).
+        spec: PathBuf,
+        /// The plant: turning, milling or grinding.
+        #[arg(long, default_value = "turning")]
+        plant: String,
+        /// Scenarios to draw from (built-in names or TOML files; repeatable). Default: every
+        /// built-in scenario of the plant.
+        #[arg(long)]
+        scenario: Vec<String>,
+        /// Number of draws.
+        #[arg(long, default_value_t = 1000)]
+        draws: u64,
+        /// Base seed of the draws.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Worker threads (default: every core).
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// Replay the draw with this seed (as the report prints it) like `qloop sim`, writing
+        /// its trace, plots and summary to --out.
+        #[arg(long, value_parser = parse_seed)]
+        replay: Option<u64>,
+        /// Output directory for --replay.
+        #[arg(long, default_value = "qloop-sweep")]
+        out: PathBuf,
+        /// Also write the report to this file.
+        #[arg(long)]
+        report: Option<PathBuf>,
+        /// Plant integration substeps per controller period.
+        #[arg(long, default_value_t = 20)]
+        substeps: usize,
+        /// Target: a built-in name (see `qloop targets`) or a target file (`*.toml`).
+        #[arg(long, default_value = "rv32i")]
+        target: String,
+    },
+    /// Run check, gen, a closed-loop simulation (turning, depth steps: 000 Fig. 5) and prove
+    /// on the built-in Koren–Masory (1981) spec; write to ./qloop-demo/.
+    ///
+    /// The proofs need z3 and/or cvc5 (skipped with a note if neither is installed).
+    Demo {
+        /// Output directory.
+        #[arg(long, default_value = "qloop-demo")]
+        out: PathBuf,
+    },
+    /// Measure cost per controller step on a target: qloop's C against the same spec with
+    /// plain multiplies, in `float`, and (koren_masory_1981) the direct-division baselines.
+    ///
+    /// Compiles each variant with the target's C compiler and runs it in a simulator:
+    /// simavr on atmega328p (exact cycles), qemu-system-arm on Cortex-M and
+    /// qemu-system-riscv32 on RV32 (instructions executed, -icount). Prints cost per step,
+    /// ratios to qloop and the goals.
+    Bench {
+        /// The spec file (*.qloop).
+        spec: PathBuf,
+        /// Target: atmega328p, cortex-m0, cortex-m0-slowmul, cortex-m4, rv32i, rv32imc (or a
+        /// target file).
+        #[arg(long)]
+        target: String,
+        /// Also write the results as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Controller steps per variant.
+        #[arg(long, default_value_t = 200, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+        steps: u32,
+        /// Exit 1 if a goal is not met (default: report only).
+        #[arg(long)]
+        check_goals: bool,
+        /// Build in this directory and keep the files (default: a temporary one, removed).
+        #[arg(long)]
+        work_dir: Option<PathBuf>,
+    },
+    /// List the built-in cost-model targets.
+    Targets,
+}
+
+/// `qloop prove --solvers`.
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Solvers {
+    /// z3 and cvc5 in parallel (cross-checked).
+    Both,
+    /// z3 only.
+    Z3,
+    /// cvc5 only.
+    Cvc5,
+}
+
+/// `qloop gen --lang`.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum Lang {
+    /// Fixed-point no_std Rust module (`fixed` types at the API, raw integers inside).
+    Rust,
+    /// The f64 reference controller compiled from the same spec.
+    RustRef,
+    /// Proof harnesses (`<spec>_proofs`): Kani proofs that also run as bolero property tests.
+    /// Place the module next to the fixed-point one; needs `bolero` as a dev-dependency.
+    Kani,
+    /// C99 `.h`/`.c` pair (stdint types, no UB, ACSL contract; see `--out`).
+    C,
+    /// LinuxCNC HAL component `qloop_NAME.comp` for halcompile: the C controller, float pins
+    /// `spindle-load` (first input) and `adaptive-feed` (first output over its range maximum).
+    Linuxcnc,
+}
+
+/// A seed in decimal or `0x` hexadecimal.
+pub fn parse_seed(s: &str) -> Result<u64, String> {
+    let r = match s.strip_prefix("0x").or_else(|| s.strip_prefix("0X")) {
+        Some(h) => u64::from_str_radix(h, 16),
+        None => s.parse(),
+    };
+    r.map_err(|e| format!("`{s}` is not a seed (a decimal or 0x-hex 64-bit number): {e}"))
+}
