@@ -1,0 +1,116 @@
+//! `docs/EQUATIONS.md` agrees with the code: every file it names exists, every `file::item` it
+//! names is an item of that file (the last path segment is defined there: `fn`, `struct`,
+//! `const`, …, or a spec's `let`/`property`), every `file:line` spec citation is inside the
+//! file, and every generated harness it names is one the seed specs generate.
+
+use std::path::Path;
+
+fn root() -> &'static Path {
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
+}
+
+/// Backticked spans of the document.
+fn code_spans(doc: &str) -> Vec<&str> {
+    doc.split('`').skip(1).step_by(2).collect()
+}
+
+const DIRS: [&str; 6] = [
+    "codegen/",
+    "plant/",
+    "tests/",
+    "verified/",
+    "targets/",
+    "docs/",
+];
+
+#[test]
+fn every_cited_file_and_item_exists() {
+    let doc = std::fs::read_to_string(root().join("docs/EQUATIONS.md")).expect("docs/EQUATIONS.md");
+    let mut checked = 0;
+    let mut missing = Vec::new();
+    for span in code_spans(&doc) {
+        let Some(first) = span.split_whitespace().next() else {
+            continue;
+        };
+        if !DIRS.iter().any(|d| first.starts_with(d)) {
+            continue;
+        }
+        let (file, item) = match first.split_once("::") {
+            Some((f, i)) => (f, Some(i)),
+            None => (first, None),
+        };
+        let (file, line) = match file.rsplit_once(':') {
+            Some((f, l)) if l.chars().all(|c| c.is_ascii_digit()) => (f, l.parse::<usize>().ok()),
+            _ => (file, None),
+        };
+        let Ok(text) = std::fs::read_to_string(root().join(file)) else {
+            if !root().join(file).exists() {
+                missing.push(format!("{first}: no file {file}"));
+            }
+            checked += 1;
+            continue;
+        };
+        if let Some(l) = line {
+            if l == 0 || l > text.lines().count() {
+                missing.push(format!("{first}: {file} has no line {l}"));
+            }
+        }
+        if let Some(item) = item {
+            let name = item.rsplit("::").next().unwrap_or(item);
+            let defined = [
+                "fn ",
+                "struct ",
+                "enum ",
+                "const ",
+                "static ",
+                "type ",
+                "mod ",
+                "trait ",
+                "let ",
+                "property ",
+                "invariant ",
+            ]
+            .iter()
+            .any(|kw| text.contains(&format!("{kw}{name}")))
+                || (file.ends_with(".c") && text.contains(&format!(" {name}(")));
+            if !defined {
+                missing.push(format!("{first}: `{name}` is not defined in {file}"));
+            }
+        }
+        checked += 1;
+    }
+    assert!(
+        checked >= 50,
+        "only {checked} citations found: did the format change?"
+    );
+    assert!(
+        missing.is_empty(),
+        "docs/EQUATIONS.md cites what is not there:\n{}",
+        missing.join("\n")
+    );
+}
+
+#[test]
+fn every_cited_harness_is_generated() {
+    let doc = std::fs::read_to_string(root().join("docs/EQUATIONS.md")).expect("docs/EQUATIONS.md");
+    for span in code_spans(&doc) {
+        let Some((module, harness)) = span.split_once("_proofs::") else {
+            continue;
+        };
+        // `name_proofs::…` stands for the module's harnesses in general.
+        if !harness
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_')
+        {
+            continue;
+        }
+        let spec = root().join(format!("verified/specs/{module}.qloop"));
+        let src = std::fs::read_to_string(&spec).unwrap_or_else(|e| panic!("{span}: {e}"));
+        let plan = qloop::compile_str(&src, &qloop::Target::default()).expect("seed spec");
+        let kani = qloop::gen_kani(&plan);
+        assert!(
+            kani.contains(&format!("fn {harness}()")),
+            "{span}: not generated"
+        );
+    }
+}
