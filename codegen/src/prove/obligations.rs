@@ -103,9 +103,11 @@ pub struct Obligation {
 
 pub use crate::prop_eval::{param_grids, ParamGrid};
 
-/// One encoding of an exact-term query: sort and product treatment.
+/// How an exact-term query is written: its sort and its treatment of products. The prover
+/// tries a property or invariant in several of these (a portfolio); the label names the one
+/// that proved it. (The bit-precise step itself is a [`smt::StepEncoding`].)
 #[derive(Clone, Copy, Debug)]
-pub struct Encoding {
+pub struct ExactEncoding {
     /// Bit-vectors or integers.
     pub sort: exact::Sort,
     /// Exact or over-approximated products.
@@ -116,25 +118,25 @@ pub struct Encoding {
 
 /// Linear integer arithmetic, products replaced by their linear envelopes: decided in
 /// milliseconds by both solvers when the envelope is tight enough for the property.
-pub const LINEAR: Encoding = Encoding {
+pub const LINEAR: ExactEncoding = ExactEncoding {
     sort: exact::Sort::Int,
     products: exact::Products::Relaxed,
     label: "linear envelope",
 };
 /// Non-linear integer arithmetic, exact (cvc5's incremental linearisation is fast on it).
-pub const INTEGER: Encoding = Encoding {
+pub const INTEGER: ExactEncoding = ExactEncoding {
     sort: exact::Sort::Int,
     products: exact::Products::Exact,
     label: "exact integers",
 };
 /// Exact terms as bit-vectors at the narrowest widths.
-pub const EXACT_BV: Encoding = Encoding {
+pub const EXACT_BV: ExactEncoding = ExactEncoding {
     sort: exact::Sort::BitVec,
     products: exact::Products::Exact,
     label: "exact terms",
 };
 /// Bit-vectors, products outside the free parameters bounded by their intervals.
-pub const ABSTRACT_BV: Encoding = Encoding {
+pub const ABSTRACT_BV: ExactEncoding = ExactEncoding {
     sort: exact::Sort::BitVec,
     products: exact::Products::Interval,
     label: "abstracted products",
@@ -215,7 +217,7 @@ pub fn with_witnesses(plan: &Plan) -> (Vec<Obligation>, Vec<Option<Query>>) {
     }
     for (k, inv) in prog.invariants.iter().enumerate() {
         let line = inv.span.start().line;
-        let query = |side: Side, how: Encoding| {
+        let query = |side: Side, how: ExactEncoding| {
             exact_query(
                 plan,
                 side,
@@ -279,7 +281,7 @@ pub fn with_witnesses(plan: &Plan) -> (Vec<Obligation>, Vec<Option<Query>>) {
             let parts: Option<Vec<Rc<B>>> = p.ensures.iter().map(|c| pt.cond(c)).collect();
             parts?.into_iter().reduce(|x, y| Rc::new(B::And(x, y)))
         };
-        let exact = |how: Encoding| {
+        let exact = |how: ExactEncoding| {
             let query = exact_query(
                 plan,
                 Side::Property,
@@ -583,7 +585,7 @@ fn script(decls: &str, premises: &[String], goal: &str) -> String {
 #[allow(clippy::too_many_arguments)]
 fn step_query(
     plan: &Plan,
-    enc: &smt::Encoding,
+    enc: &smt::StepEncoding,
     paths: &BTreeMap<ValId, String>,
     needed: &BTreeSet<ValId>,
     extra: &[String],
@@ -671,7 +673,7 @@ fn local_val_query(plan: &Plan, id: ValId) -> Query {
 /// The whole-program overflow query of a claimed value or a load.
 fn global_val_query(
     plan: &Plan,
-    enc: &smt::Encoding,
+    enc: &smt::StepEncoding,
     paths: &BTreeMap<ValId, String>,
     id: ValId,
     want: &[String],
@@ -754,7 +756,7 @@ fn exact_query(
     goal: &dyn Fn(&PropTerms) -> Option<Rc<B>>,
     params: std::ops::Range<usize>,
     grids: &[ParamGrid],
-    how: Encoding,
+    how: ExactEncoding,
 ) -> Option<Query> {
     let prog = &plan.prog;
     let ranges = |id: SigId| -> (i128, i128) {
@@ -865,7 +867,7 @@ fn exact_query(
 /// The bit-precise (SSA) encoding of property `k`, with lemmas for its cone of influence.
 fn direct_property_query(
     plan: &Plan,
-    enc: &smt::Encoding,
+    enc: &smt::StepEncoding,
     paths: &BTreeMap<ValId, String>,
     post_cone: &dyn Fn(&BTreeSet<SigId>) -> BTreeSet<ValId>,
     k: usize,
