@@ -93,7 +93,6 @@ pub(super) fn exact_query(
         .iter()
         .flat_map(|g| [g.var.clone(), format!("d_{}", g.var)])
         .collect();
-    let mut premises: Vec<String> = Vec::new();
     // A free parameter p compared with a state s (`p - s` in the property) is rewritten as
     // p = s + D with a fresh D: a change of variables (exact, both ways), after which the
     // linear normal form cancels s and shares s's products with the step's own terms.
@@ -101,30 +100,7 @@ pub(super) fn exact_query(
         Side::Property => param_state_pairs(plan, assumes, goal_conds),
         _ => BTreeMap::new(),
     };
-    let mut params_t: Vec<(Rc<T>, i32)> = Vec::new();
-    for (i, g) in grids.iter().enumerate() {
-        let pv = Rc::new(T::Var(g.var.clone(), g.width, true, g.lo, g.hi));
-        let state = subst.get(&i).copied();
-        let shift = state.map_or(-1, |s| g.frac - plan.format(s).frac);
-        match state {
-            Some(s) if shift >= 0 => {
-                let (slo, shi) = ranges(s);
-                let (dlo, dhi) = (g.lo - (shi << shift), g.hi - (slo << shift));
-                let d = Rc::new(T::Var(
-                    format!("d_{}", g.var),
-                    signed_bits(dlo, dhi),
-                    true,
-                    dlo,
-                    dhi,
-                ));
-                let t = exact::add_terms(exact::shl_term(terms.pre[&s].clone(), shift as u32), d);
-                // Keep p in the model (for replay): p = s·2^shift + D, inside p's grid range.
-                premises.push(em.equal(&pv, &t));
-                params_t.push((t, g.frac));
-            }
-            _ => params_t.push((pv, g.frac)),
-        }
-    }
+    let (params_t, mut premises) = param_terms(plan, grids, &subst, &ranges, &terms, &mut em);
     let pre_env = PropTerms {
         plan,
         terms: &terms,
@@ -164,6 +140,51 @@ pub(super) fn exact_query(
         _ => goal(&pre_env)?,
     };
     let goal = em.boolean(&g);
+    Some(finish(em, premises, &goal))
+}
+
+/// The terms of the free parameters (in `grids` order, with their binary points), and the
+/// premises tying each parameter `p` in `subst` to its state: `p = s·2^shift + D`.
+fn param_terms(
+    plan: &Plan,
+    grids: &[ParamGrid],
+    subst: &BTreeMap<usize, SigId>,
+    ranges: &dyn Fn(SigId) -> (i128, i128),
+    terms: &exact::Terms,
+    em: &mut exact::Emitter,
+) -> (Vec<(Rc<T>, i32)>, Vec<String>) {
+    let mut premises = Vec::new();
+    let mut params_t: Vec<(Rc<T>, i32)> = Vec::new();
+    for (i, g) in grids.iter().enumerate() {
+        let pv = Rc::new(T::Var(g.var.clone(), g.width, true, g.lo, g.hi));
+        let state = subst.get(&i).copied();
+        let shift = state.map_or(-1, |s| g.frac - plan.format(s).frac);
+        match state {
+            Some(s) if shift >= 0 => {
+                let (slo, shi) = ranges(s);
+                let (dlo, dhi) = (g.lo - (shi << shift), g.hi - (slo << shift));
+                let d = Rc::new(T::Var(
+                    format!("d_{}", g.var),
+                    signed_bits(dlo, dhi),
+                    true,
+                    dlo,
+                    dhi,
+                ));
+                let t = exact::add_terms(exact::shl_term(terms.pre[&s].clone(), shift as u32), d);
+                // Keep p in the model (for replay): p = s·2^shift + D, inside p's grid range.
+                premises.push(em.equal(&pv, &t));
+                params_t.push((t, g.frac));
+            }
+            _ => params_t.push((pv, g.frac)),
+        }
+    }
+    (params_t, premises)
+}
+
+/// The script of an exact-term query: the emitter's logic, declarations and definitions,
+/// `premises` then the emitter's own premises asserted, `goal` negated; the model asked for
+/// is every declared variable.
+fn finish(mut em: exact::Emitter, mut premises: Vec<String>, goal: &str) -> Query {
     premises.append(&mut em.premises);
     let mut text = format!("(set-logic {})\n", em.logic());
     text.push_str(&em.declarations());
@@ -177,7 +198,7 @@ pub(super) fn exact_query(
         .lines()
         .filter_map(|l| l.split_whitespace().nth(1).map(String::from))
         .collect();
-    Some(Query { script: text, want })
+    Query { script: text, want }
 }
 
 /// Invariant `k` of the program as an exact-term question: initially ([`Side::Initial`]) or
