@@ -3,15 +3,15 @@
 //!
 //! One job per module:
 //!
-//! | module          | job                                                                      |
-//! |-----------------|--------------------------------------------------------------------------|
-//! | this one        | the vocabulary: [`Solver`], [`Query`], [`Answer`], [`Run`], [`Config`]    |
-//! | `portfolio`     | every query on every solver, `jobs` at a time, with group cancellation    |
-//! | `run`           | one solver on one query: the text sent, cache, deadline, answer           |
-//! | `process`       | a child process with a time limit and a cancel flag, always reaped        |
-//! | `sexp`          | reading the S-expressions solvers print                                   |
-//! | `response`      | a solver's standard output as an [`Answer`] (verdict, bit-vector model)   |
-//! | `cache`         | the on-disk verdict cache                                                 |
+//! | module      | job                                                                    |
+//! |-------------|------------------------------------------------------------------------|
+//! | this one    | the vocabulary: [`Solver`], [`Query`], [`Answer`], [`Run`], [`Config`] |
+//! | `portfolio` | every query on every solver, `jobs` at a time, with group cancellation |
+//! | `run`       | one solver on one query: the text sent, cache, deadline, answer        |
+//! | `process`   | a child process with a time limit and a cancel flag, always reaped     |
+//! | `sexp`      | reading the S-expressions solvers print                                |
+//! | `response`  | a solver's standard output as an [`Answer`] (verdict, bit-vector model) |
+//! | `cache`     | the on-disk verdict cache                                              |
 //!
 //! # Why no SMT crate
 //!
@@ -37,7 +37,7 @@
 //!   `#b00000010` come back as the number 2, so the width is lost (`#b0000000`, 7 bits, cannot
 //!   be told from `#b0`), and a 128-bit `#xff..ff` becomes a floating-point number;
 //!   `|a b|` quoted symbols are rejected; the SMT-LIB 2.6 string `"a ""b"""` reads as three
-//!   strings. The reader here is about 150 lines (`sexp`) and keeps atoms as written.
+//!   strings. The reader here is about 160 lines (`sexp`) and keeps atoms as written.
 //!
 //! Using either crate would mean writing around it as much code as `process` and `sexp`
 //! hold, so both stay hand-written, each in its own module with its own tests.
