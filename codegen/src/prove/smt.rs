@@ -77,8 +77,10 @@ pub fn pre_var(prog: &Program, id: SigId) -> String {
 
 pub use crate::prop_eval::param_var;
 
-/// The whole step, as definitions over `in_*` and `pre_*` variables.
-pub struct Encoding {
+/// The bit-precise (SSA) encoding of one step of the plan, as definitions over `in_*` and
+/// `pre_*` variables: the shared body of the whole-program queries. (Not to be confused with
+/// [`super::obligations::ExactEncoding`], which picks how an exact-term query is written.)
+pub struct StepEncoding {
     /// Declarations and definitions, in order.
     pub text: String,
     /// Term of each state/output after the step (storage width).
@@ -100,7 +102,7 @@ pub fn vname(id: ValId) -> String {
 }
 
 /// Declares inputs and pre-states and defines every plan value.
-pub fn encode_step(plan: &Plan) -> Encoding {
+pub fn encode_step(plan: &Plan) -> StepEncoding {
     let prog = &plan.prog;
     let mut text = String::new();
     let mut env: BTreeMap<SigId, String> = BTreeMap::new();
@@ -131,7 +133,7 @@ pub fn encode_step(plan: &Plan) -> Encoding {
     }
     let mut merges = 0usize;
     block(plan, &plan.body, &mut env, &mut text, &mut merges);
-    Encoding { text, post: env }
+    StepEncoding { text, post: env }
 }
 
 fn block(

@@ -1,0 +1,234 @@
+//! Exact-term queries: the step's values as exact (non-wrapping) terms over the pre-state,
+//! inputs and free parameters, written in one of several encodings ([`ExactEncoding`]):
+//! integers or bit-vectors, products exact or over-approximated. The invariant and property
+//! obligations try each question in several of them (a portfolio).
+
+use super::ParamGrid;
+use crate::ir::{PCond, SigId, SigKind};
+use crate::lower::Plan;
+use crate::prove::exact::{self, PropTerms, B, T};
+use crate::prove::smt::signed_bits;
+use crate::prove::solver::Query;
+use std::collections::BTreeMap;
+use std::fmt::Write;
+use std::rc::Rc;
+
+/// How an exact-term query is written: its sort and its treatment of products. The prover
+/// tries a property or invariant in several of these (a portfolio); the label names the one
+/// that proved it. (The bit-precise step itself is a [`crate::prove::smt::StepEncoding`].)
+#[derive(Clone, Copy, Debug)]
+pub struct ExactEncoding {
+    /// Bit-vectors or integers.
+    pub sort: exact::Sort,
+    /// Exact or over-approximated products.
+    pub products: exact::Products,
+    /// Name in reports (`property P [label]`).
+    pub label: &'static str,
+}
+
+/// Linear integer arithmetic, products replaced by their linear envelopes: decided in
+/// milliseconds by both solvers when the envelope is tight enough for the property.
+pub const LINEAR: ExactEncoding = ExactEncoding {
+    sort: exact::Sort::Int,
+    products: exact::Products::Relaxed,
+    label: "linear envelope",
+};
+/// Non-linear integer arithmetic, exact (cvc5's incremental linearisation is fast on it).
+pub const INTEGER: ExactEncoding = ExactEncoding {
+    sort: exact::Sort::Int,
+    products: exact::Products::Exact,
+    label: "exact integers",
+};
+/// Exact terms as bit-vectors at the narrowest widths.
+pub const EXACT_BV: ExactEncoding = ExactEncoding {
+    sort: exact::Sort::BitVec,
+    products: exact::Products::Exact,
+    label: "exact terms",
+};
+/// Bit-vectors, products outside the free parameters bounded by their intervals.
+pub const ABSTRACT_BV: ExactEncoding = ExactEncoding {
+    sort: exact::Sort::BitVec,
+    products: exact::Products::Interval,
+    label: "abstracted products",
+};
+
+/// Which question an exact query asks.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(super) enum Side {
+    /// The initial state (states fixed to their initial values, goal over pre-state).
+    Initial,
+    /// One step from any state in the invariants and any input bits (goal over post-state).
+    Step,
+    /// One step from any state in the invariants and inputs in range (goal over both).
+    Property,
+}
+
+/// A query over exact terms: premises (state ranges, invariants, input ranges for
+/// properties, parameter ranges, `assumes`) ⇒ `goal`.
+pub(super) fn exact_query(
+    plan: &Plan,
+    side: Side,
+    assumes: &[PCond],
+    goal_conds: &[PCond],
+    goal: &dyn Fn(&PropTerms) -> Option<Rc<B>>,
+    grids: &[ParamGrid],
+    how: ExactEncoding,
+) -> Option<Query> {
+    let prog = &plan.prog;
+    let ranges = |id: SigId| -> (i128, i128) {
+        let q = plan.format(id);
+        let s = prog.sig(id);
+        match (s.kind, side) {
+            (SigKind::State, Side::Initial) => (plan.raw_init(id), plan.raw_init(id)),
+            (SigKind::State, _) | (SigKind::Input, Side::Property) => plan.bounds(id),
+            _ => (q.ty.min(), q.ty.max()),
+        }
+    };
+    let terms = exact::terms(plan, &ranges);
+    // Over-approximations (products as fresh variables bounded by their interval, or by
+    // their linear envelope) are sound: more behaviours, not fewer; a counterexample they
+    // find may be spurious, and the replay says so.
+    let mut em = exact::Emitter::new(how.sort, how.products);
+    em.keep = grids
+        .iter()
+        .flat_map(|g| [g.var.clone(), format!("d_{}", g.var)])
+        .collect();
+    // A free parameter p compared with a state s (`p - s` in the property) is rewritten as
+    // p = s + D with a fresh D: a change of variables (exact, both ways), after which the
+    // linear normal form cancels s and shares s's products with the step's own terms.
+    let subst = match side {
+        Side::Property => param_state_pairs(plan, assumes, goal_conds),
+        _ => BTreeMap::new(),
+    };
+    let (params_t, mut premises) = param_terms(plan, grids, &subst, &ranges, &terms, &mut em);
+    let pre_env = PropTerms {
+        plan,
+        terms: &terms,
+        params: params_t.clone(),
+        pre_as_post: false,
+    };
+    let post_env = PropTerms {
+        plan,
+        terms: &terms,
+        params: params_t.clone(),
+        pre_as_post: true,
+    };
+    // Every variable inside its assumed range.
+    let mut vars: Vec<Rc<T>> = terms.pre.values().cloned().collect();
+    vars.extend(params_t.iter().map(|(t, _)| t.clone()));
+    vars.extend(
+        grids
+            .iter()
+            .map(|g| Rc::new(T::Var(g.var.clone(), g.width, true, g.lo, g.hi))),
+    );
+    let vars: Vec<Rc<T>> = vars.iter().flat_map(exact::vars_of).collect();
+    for v in &vars {
+        if let T::Var(_, _, _, lo, hi) = &**v {
+            premises.push(em.in_range(v, *lo, *hi));
+        }
+    }
+    if side != Side::Initial {
+        for inv in &prog.invariants {
+            premises.push(em.boolean(&pre_env.cond(&inv.cond)?));
+        }
+    }
+    for a in assumes {
+        premises.push(em.boolean(&pre_env.cond(a)?));
+    }
+    let g = match side {
+        Side::Step => goal(&post_env)?,
+        _ => goal(&pre_env)?,
+    };
+    let goal = em.boolean(&g);
+    Some(finish(em, premises, &goal))
+}
+
+/// The terms of the free parameters (in `grids` order, with their binary points), and the
+/// premises tying each parameter `p` in `subst` to its state: `p = s·2^shift + D`.
+fn param_terms(
+    plan: &Plan,
+    grids: &[ParamGrid],
+    subst: &BTreeMap<usize, SigId>,
+    ranges: &dyn Fn(SigId) -> (i128, i128),
+    terms: &exact::Terms,
+    em: &mut exact::Emitter,
+) -> (Vec<(Rc<T>, i32)>, Vec<String>) {
+    let mut premises = Vec::new();
+    let mut params_t: Vec<(Rc<T>, i32)> = Vec::new();
+    for (i, g) in grids.iter().enumerate() {
+        let pv = Rc::new(T::Var(g.var.clone(), g.width, true, g.lo, g.hi));
+        let state = subst.get(&i).copied();
+        let shift = state.map_or(-1, |s| g.frac - plan.format(s).frac);
+        match state {
+            Some(s) if shift >= 0 => {
+                let (slo, shi) = ranges(s);
+                let (dlo, dhi) = (g.lo - (shi << shift), g.hi - (slo << shift));
+                let d = Rc::new(T::Var(
+                    format!("d_{}", g.var),
+                    signed_bits(dlo, dhi),
+                    true,
+                    dlo,
+                    dhi,
+                ));
+                let t = exact::add_terms(exact::shl_term(terms.pre[&s].clone(), shift as u32), d);
+                // Keep p in the model (for replay): p = s·2^shift + D, inside p's grid range.
+                premises.push(em.equal(&pv, &t));
+                params_t.push((t, g.frac));
+            }
+            _ => params_t.push((pv, g.frac)),
+        }
+    }
+    (params_t, premises)
+}
+
+/// The script of an exact-term query: the emitter's logic, declarations and definitions,
+/// `premises` then the emitter's own premises asserted, `goal` negated; the model asked for
+/// is every declared variable.
+fn finish(mut em: exact::Emitter, mut premises: Vec<String>, goal: &str) -> Query {
+    premises.append(&mut em.premises);
+    let mut text = format!("(set-logic {})\n", em.logic());
+    text.push_str(&em.declarations());
+    text.push_str(&em.text);
+    for p in &premises {
+        let _ = writeln!(text, "(assert {p})");
+    }
+    let _ = writeln!(text, "(assert (not {goal}))");
+    let want = em
+        .declarations()
+        .lines()
+        .filter_map(|l| l.split_whitespace().nth(1).map(String::from))
+        .collect();
+    Query { script: text, want }
+}
+
+/// Invariant `k` of the program as an exact-term question: initially ([`Side::Initial`]) or
+/// after one step ([`Side::Step`]), written as `how` says.
+pub(super) fn invariant_query(
+    plan: &Plan,
+    side: Side,
+    k: usize,
+    how: ExactEncoding,
+) -> Option<Query> {
+    let inv = &plan.prog.invariants[k];
+    exact_query(plan, side, &[], &[], &|pt| pt.cond(&inv.cond), &[], how)
+}
+
+/// Free parameters that a property compares with a pre-step state (`p - s` or `s - p`).
+fn param_state_pairs(plan: &Plan, assumes: &[PCond], ensures: &[PCond]) -> BTreeMap<usize, SigId> {
+    use crate::ir::{PExpr, When};
+    let mut out = BTreeMap::new();
+    for c in assumes.iter().chain(ensures) {
+        c.walk(&mut |x| {
+            if let PExpr::Sub(a, b) = x {
+                if let (PExpr::Param(i), PExpr::Sig(s, When::Pre))
+                | (PExpr::Sig(s, When::Pre), PExpr::Param(i)) = (&**a, &**b)
+                {
+                    if plan.prog.sig(*s).kind == SigKind::State {
+                        out.entry(*i).or_insert(*s);
+                    }
+                }
+            }
+        });
+    }
+    out
+}

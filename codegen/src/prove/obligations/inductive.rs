@@ -1,0 +1,71 @@
+//! Inductive obligations: one step from any state inside the ranges and invariants, with any
+//! input bits, lands inside them again. With the initial obligations this proves the ranges
+//! and invariants for every reachable state, for unbounded time.
+
+use super::cone::post_signals;
+use super::exact_query::{invariant_query, Side, EXACT_BV, INTEGER, LINEAR};
+use super::step::{state_bound, Step};
+use super::{Goal, Kind, Obligation};
+use crate::ir::SigId;
+use crate::prove::smt::PropEnv;
+use std::collections::BTreeSet;
+
+/// State `id` stays inside its range after one step (bit-precise).
+pub(super) fn state_range(step: &Step, id: SigId) -> Obligation {
+    let plan = step.plan;
+    let s = plan.prog.sig(id);
+    let goal = state_bound(plan, id, &step.enc.post[&id]);
+    let needed = step.cone.post_of(&BTreeSet::from([id]));
+    Obligation {
+        name: format!("{} stays inside its range", s.name),
+        kind: Kind::Inductive,
+        query: step.query(&needed, &[], &goal, &step.want, false),
+        goal: Goal::StateBound(id),
+        line: s.span.start().line,
+        encoding: None,
+    }
+}
+
+/// Invariant `k` holds after one step: a portfolio of exact-term encodings, cheapest first,
+/// then the bit-precise one (products of post-states distribute badly in exact terms).
+/// Encodings the invariant cannot be written in are left out.
+pub(super) fn invariant(step: &Step, k: usize) -> Vec<Obligation> {
+    let plan = step.plan;
+    let inv = &plan.prog.invariants[k];
+    let line = inv.span.start().line;
+    let name = format!("invariant {} is inductive", inv.name);
+    let mut out = Vec::new();
+    for how in [LINEAR, INTEGER, EXACT_BV] {
+        if let Some(query) = invariant_query(plan, Side::Step, k, how) {
+            out.push(Obligation {
+                name: name.clone(),
+                kind: Kind::Inductive,
+                query,
+                goal: Goal::Invariant(k),
+                line,
+                encoding: Some(how.label),
+            });
+        }
+    }
+    let none: Vec<(String, u32, i32)> = Vec::new();
+    let post_env = PropEnv {
+        plan,
+        post: &step.enc.post,
+        params: &none,
+        pre_as_post: true,
+    };
+    if let Some(goal) = post_env.cond(&inv.cond) {
+        let mut sigs = BTreeSet::new();
+        post_signals(&inv.cond, &mut sigs, true);
+        let needed = step.cone.post_of(&sigs);
+        out.push(Obligation {
+            name,
+            kind: Kind::Inductive,
+            query: step.query(&needed, &[], &goal, &step.want, false),
+            goal: Goal::Invariant(k),
+            line,
+            encoding: Some("bit-precise"),
+        });
+    }
+    out
+}

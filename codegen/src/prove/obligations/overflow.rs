@@ -1,0 +1,204 @@
+//! Overflow obligations: every plan value stays inside the interval the range analysis
+//! assigned to it, which lies inside its machine type.
+//!
+//! For a value the analysis *derived*, the obligation is local: its operands, declared at the
+//! narrowest widths that hold their own intervals, produce an exact result inside its
+//! interval. By induction over the straight-line plan (each operand's interval is its own
+//! obligation) this proves that no value of the step ever leaves its width. Values whose
+//! interval is a user *claim* (`#[range]`, `#[unsaturated]`), loads, and values whose interval
+//! is tighter than interval arithmetic on their operands gives get a whole-program query.
+
+use super::step::{script, Step};
+use super::{Goal, Kind, Obligation};
+use crate::lower::lir::{Op, ValId};
+use crate::lower::Plan;
+use crate::prove::smt::{self, in_range, resize, signed_bits, vname};
+use crate::prove::solver::Query;
+use std::fmt::Write;
+
+/// One overflow obligation per value that is neither boolean nor an input, in plan order.
+pub(super) fn obligations(step: &Step) -> Vec<Obligation> {
+    let plan = step.plan;
+    let mut out = Vec::new();
+    for (i, v) in plan.vals.iter().enumerate() {
+        let id = ValId(i);
+        if v.boolean || matches!(v.op, Op::Input(_)) {
+            continue;
+        }
+        let label = v.name.clone().unwrap_or_else(|| format!("_{i}"));
+        let claimed = if v.claimed { ", claimed" } else { "" };
+        let name = format!(
+            "{label} ({}{claimed}) in [{}, {}] ⊆ {}",
+            op_name(&v.op),
+            v.lo,
+            v.hi,
+            v.ty
+        );
+        let global = v.claimed || matches!(v.op, Op::Load(_)) || !interval_closed(plan, id);
+        let query = if global {
+            global_val_query(step, id)
+        } else {
+            local_val_query(plan, id)
+        };
+        out.push(Obligation {
+            name,
+            kind: Kind::Overflow,
+            query,
+            goal: Goal::Val {
+                val: id,
+                local: !global,
+            },
+            line: v.line,
+            encoding: None,
+        });
+    }
+    out
+}
+
+/// Whether interval arithmetic on the operands' intervals alone yields a subset of the value's
+/// interval, so that the local query can prove it. Values of a shift-add network are
+/// correlated (`7x = 8x - x`): their intervals are tighter than their operands suggest, and
+/// they get a whole-program query instead.
+fn interval_closed(plan: &Plan, id: ValId) -> bool {
+    let v = plan.val(id);
+    let r = |j: &ValId| (plan.val(*j).lo, plan.val(*j).hi);
+    let (lo, hi) = match &v.op {
+        Op::Add(a, b) => {
+            let ((al, ah), (bl, bh)) = (r(a), r(b));
+            (al + bl, ah + bh)
+        }
+        Op::Sub(a, b) => {
+            let ((al, ah), (bl, bh)) = (r(a), r(b));
+            (al - bh, ah - bl)
+        }
+        Op::Neg(a) => (-r(a).1, -r(a).0),
+        Op::Mul(a, b) => {
+            let ((al, ah), (bl, bh)) = (r(a), r(b));
+            let c = [al * bl, al * bh, ah * bl, ah * bh];
+            (*c.iter().min().unwrap_or(&0), *c.iter().max().unwrap_or(&0))
+        }
+        Op::Shl(a, k) => (r(a).0 << k, r(a).1 << k),
+        Op::Shr(a, k) => (r(a).0 >> k, r(a).1 >> k),
+        Op::Cast(a) => r(a),
+        Op::Min(a, b) => (r(a).0.min(r(b).0), r(a).1.min(r(b).1)),
+        Op::Max(a, b) => (r(a).0.max(r(b).0), r(a).1.max(r(b).1)),
+        Op::Select(_, a, b) => (r(a).0.min(r(b).0), r(a).1.max(r(b).1)),
+        _ => return true,
+    };
+    v.lo <= lo && hi <= v.hi
+}
+
+/// The operation's name in obligation names: `_3 (mul) in [..]`.
+fn op_name(op: &Op) -> &'static str {
+    match op {
+        Op::Input(_) => "input",
+        Op::Load(_) => "load",
+        Op::Const(_) => "const",
+        Op::Cast(_) => "cast",
+        Op::Add(..) => "add",
+        Op::Sub(..) => "sub",
+        Op::Neg(_) => "neg",
+        Op::Shl(..) => "shl",
+        Op::Shr(..) => "shr",
+        Op::Mul(..) => "mul",
+        Op::Min(..) => "min",
+        Op::Max(..) => "max",
+        Op::Select(..) => "select",
+        Op::Cmp(..) | Op::And(..) | Op::Or(..) | Op::Not(..) => "bool",
+    }
+}
+
+/// The local overflow query of a derived value: operands free within their intervals.
+fn local_val_query(plan: &Plan, id: ValId) -> Query {
+    let v = plan.val(id);
+    let mut decls = String::new();
+    let mut premises = Vec::new();
+    let mut want = Vec::new();
+    let operand = |j: ValId| -> (String, u32) {
+        let o = plan.val(j);
+        if o.boolean {
+            (format!("o{}", j.0), 1)
+        } else {
+            (format!("o{}", j.0), signed_bits(o.lo, o.hi))
+        }
+    };
+    for j in v.op.operands() {
+        let o = plan.val(j);
+        let (name, w) = operand(j);
+        if want.contains(&name) {
+            continue;
+        }
+        if o.boolean {
+            let _ = writeln!(decls, "(declare-fun {name} () Bool)");
+        } else {
+            let _ = writeln!(decls, "(declare-fun {name} () (_ BitVec {w}))");
+            premises.push(in_range(&name, w, o.lo, o.hi));
+        }
+        want.push(name);
+    }
+    let goal = match smt::exact_term(plan, id, &operand) {
+        Some((t, w)) => {
+            let w2 = w.max(signed_bits(v.lo, v.hi));
+            in_range(&resize(&t, w, w2, true), w2, v.lo, v.hi)
+        }
+        None => "true".into(),
+    };
+    Query {
+        script: script(&decls, &premises, &goal),
+        want,
+    }
+}
+
+/// The whole-program overflow query of a claimed value or a load.
+fn global_val_query(step: &Step, id: ValId) -> Query {
+    let plan = step.plan;
+    let v = plan.val(id);
+    let operand = |j: ValId| -> (String, u32) {
+        let o = plan.val(j);
+        if o.boolean || o.ty.signed {
+            (vname(j), o.ty.bits)
+        } else {
+            (
+                resize(&vname(j), o.ty.bits, o.ty.bits + 1, false),
+                o.ty.bits + 1,
+            )
+        }
+    };
+    let (t, w) = match smt::exact_term(plan, id, &operand) {
+        Some(x) => x,
+        None => operand(id),
+    };
+    let w2 = w.max(signed_bits(v.lo, v.hi));
+    let goal = step
+        .paths
+        .guard(id, in_range(&resize(&t, w, w2, true), w2, v.lo, v.hi));
+    let mut premises = step.state_premises();
+    premises.extend(step.lemmas(&step.cone.val[id.0], Some(id)));
+    Query {
+        script: script(&step.enc.text, &premises, &goal),
+        want: step.want.clone(),
+    }
+}
+
+/// The whole-program overflow obligation of one value (used when a local query is refuted,
+/// to get a counterexample that is a program state).
+pub fn global_for(plan: &Plan, id: ValId) -> Obligation {
+    let step = Step::new(plan);
+    let v = plan.val(id);
+    Obligation {
+        name: format!(
+            "{} stays in [{}, {}] (whole program)",
+            v.name.clone().unwrap_or_else(|| format!("_{}", id.0)),
+            v.lo,
+            v.hi
+        ),
+        kind: Kind::Overflow,
+        query: global_val_query(&step, id),
+        goal: Goal::Val {
+            val: id,
+            local: false,
+        },
+        line: v.line,
+        encoding: None,
+    }
+}
