@@ -10,7 +10,7 @@
 //! * [`sensor`]: gain, seeded noise, saturation, ADC quantisation.
 //! * [`scenario`]: piecewise-linear channel schedules, in code or TOML.
 //! * [`plot`]: the figure of a run (SVG, PNG).
-//! * [`runner`]: ZOH, substep integration, both loops in lock step; [`metrics`]: settling,
+//! * [`runner`]: ZOH, substep integration, both loops in lock step; [`metrics`](mod@metrics): settling,
 //!   overshoot, steady-state error, oscillation verdict and frequency, fixed − f64.
 
 pub mod catalog;

@@ -15,7 +15,7 @@
 //! * `invariant_<name>`: one step from any state inside the bounds satisfying the invariants,
 //!   with any input bits, keeps the invariant.
 //! * `property_<name>`: one step from inputs inside their declared ranges, states inside the
-//!   bounds and invariants, and free parameters on their grid ([`param_grids`]): the `assume`s
+//!   bounds and invariants, and free parameters on their grid ([`crate::prop_eval::param_grids`]): the `assume`s
 //!   imply every `ensure`.
 //!
 //! Assumptions are early `return`s. Under Kani a path that returns before an assertion cannot
@@ -26,13 +26,13 @@
 //! Property and invariant conditions are evaluated exactly, with the semantics of
 //! `qloop`'s `prove::replay` but in `i128`: a signal is `raw · 2^-frac`, binary points are
 //! aligned by left shifts, products multiply raw values and add fractions, and constants are
-//! their exact binary values `m · 2^-f` ([`exact_binary`]). The magnitude of every
+//! their exact binary values `m · 2^-f` ([`crate::prop_eval::exact_binary`]). The magnitude of every
 //! intermediate is bounded here, from the raw ranges; a harness whose bound would exceed
 //! 2^126 is not emitted, and a documented constant says why.
 //!
-//! One module per part: [`sigs`] (the signals, read once), [`scaffold`] (the shared items),
-//! one per harness kind ([`overflow`], [`initial`], [`invariant`], [`property`]), [`exact`]
-//! (the exact `i128` evaluator), [`docs`] and [`show`] (doc text and literals).
+//! One module per part: `sigs` (the signals, read once), `scaffold` (the shared items),
+//! one per harness kind (`overflow`, `initial`, `invariant`, `property`), `exact`
+//! (the exact `i128` evaluator), `docs` and `show` (doc text and literals).
 
 mod docs;
 mod exact;
