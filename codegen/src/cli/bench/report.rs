@@ -75,6 +75,30 @@ fn fmt_mean(x: f64) -> String {
     }
 }
 
+/// One bench run's data: the arguments, the platform, the variants and what each measured
+/// (`variants[0]`/`results[0]` are qloop's).
+struct Run<'a> {
+    a: &'a BenchArgs<'a>,
+    pf: &'a Platform,
+    variants: &'a [Variant],
+    results: &'a [Measured],
+}
+
+/// The variants in the order the table and the JSON list them.
+const ORDER: [&str; 5] = ["qloop", "plain_mul", "float", "div_float", "div_int32"];
+
+impl Run<'_> {
+    /// The index of a variant, if it was built.
+    fn find(&self, name: &str) -> Option<usize> {
+        self.variants.iter().position(|v| v.name == name)
+    }
+
+    /// qloop's mean per step.
+    fn q_mean(&self) -> f64 {
+        self.results[0].mean()
+    }
+}
+
 /// Prints the table, the output checks and the goals, and writes the JSON; returns whether
 /// qloop's and plain_mul's outputs are identical and whether every goal is met.
 pub(super) fn summarize(
@@ -83,10 +107,14 @@ pub(super) fn summarize(
     variants: &[Variant],
     results: &[Measured],
 ) -> CliResult<(bool, bool)> {
+    let r = Run {
+        a,
+        pf,
+        variants,
+        results,
+    };
     let plan = a.plan;
     let t = &plan.target;
-    let unit = pf.unit();
-    let q_mean = results[0].mean();
     let mut o = format!(
         "qloop bench: spec `{}` on target `{}` ({}), {} steps\nmethod: {}\n\n",
         plan.prog.name,
@@ -95,6 +123,25 @@ pub(super) fn summarize(
         a.steps,
         pf.method()
     );
+    table(&r, &mut o);
+    let identical = outputs(&r, &mut o);
+    let goals = goals(&r, &mut o);
+    let all_met = goals.iter().all(|g| g.met);
+    print!("{o}");
+    if let Some(path) = a.json {
+        write_json(&r, path, identical, &goals)?;
+    }
+    Ok((identical, all_met))
+}
+
+/// The cost table: per variant, mean, min and max per step and the ratio to qloop, with
+/// notes on what the counts mean on this platform.
+fn table(r: &Run, o: &mut String) {
+    let (a, pf, variants, results) = (r.a, r.pf, r.variants, r.results);
+    let t = &a.plan.target;
+    let unit = pf.unit();
+    let q_mean = r.q_mean();
+    let find = |name: &str| r.find(name);
     let _ = writeln!(
         o,
         "{:<10} {:>12} {:>10} {:>10} {:>14}",
@@ -104,9 +151,7 @@ pub(super) fn summarize(
         "max",
         "ratio to qloop"
     );
-    let order = ["qloop", "plain_mul", "float", "div_float", "div_int32"];
-    let find = |name: &str| variants.iter().position(|v| v.name == name);
-    for name in order {
+    for name in ORDER {
         match find(name) {
             Some(i) => {
                 let m = &results[i];
@@ -158,8 +203,14 @@ pub(super) fn summarize(
             );
         }
     }
+}
 
-    // Outputs.
+/// The output checks: plain_mul must equal qloop bit for bit; float and the division
+/// baselines agree within their tolerances. Returns whether plain_mul equals qloop.
+fn outputs(r: &Run, o: &mut String) -> bool {
+    let (a, variants, results) = (r.a, r.variants, r.results);
+    let plan = a.plan;
+    let find = |name: &str| r.find(name);
     let _ = writeln!(o, "\noutputs:");
     let q = &results[0];
     let qv = &variants[0];
@@ -237,8 +288,15 @@ pub(super) fn summarize(
             d.step,
         );
     }
+    identical
+}
 
-    // Goals.
+/// The goals (issue 5), printed; returns them for the JSON.
+fn goals(r: &Run, o: &mut String) -> Vec<Goal> {
+    let (plan, unit, results) = (r.a.plan, r.pf.unit(), r.results);
+    let t = &plan.target;
+    let q_mean = r.q_mean();
+    let find = |name: &str| r.find(name);
     let mut goals = Vec::new();
     let ratio = |name: &str| find(name).map(|i| results[i].mean() / q_mean.max(f64::MIN_POSITIVE));
     if let Some(r) = ratio("float") {
@@ -284,35 +342,39 @@ pub(super) fn summarize(
             g.text
         );
     }
-    let all_met = goals.iter().all(|g| g.met);
-    print!("{o}");
+    goals
+}
 
-    if let Some(path) = a.json {
-        let val = |name: &str, f: &dyn Fn(&Measured) -> serde_json::Value| {
-            find(name).map_or(serde_json::Value::Null, |i| f(&results[i]))
-        };
-        let obj = |f: &dyn Fn(&Measured) -> serde_json::Value| {
-            let mut m = serde_json::Map::new();
-            for name in order {
-                m.insert(name.to_string(), val(name, f));
-            }
-            serde_json::Value::Object(m)
-        };
-        let json = serde_json::json!({
-            "spec": plan.prog.name,
-            "target": t.name,
-            "unit": unit,
-            "method": pf.method(),
-            "steps": a.steps,
-            "step": obj(&|m| serde_json::json!((m.mean() * 100.0).round() / 100.0)),
-            "min": obj(&|m| serde_json::json!(m.min())),
-            "max": obj(&|m| serde_json::json!(m.max())),
-            "qloop_equals_plain_mul": identical,
-            "goals": goals.iter().map(|g| serde_json::json!({"goal": g.text, "met": g.met})).collect::<Vec<_>>(),
-        });
-        let text = serde_json::to_string_pretty(&json).unwrap_or_default() + "\n";
-        crate::cli::files::write_atomic(path, &text)?;
-        println!("\nwrote {}", path.display());
-    }
-    Ok((identical, all_met))
+/// Writes the JSON report atomically.
+fn write_json(r: &Run, path: &std::path::Path, identical: bool, goals: &[Goal]) -> CliResult {
+    let (a, pf, results) = (r.a, r.pf, r.results);
+    let (plan, unit) = (a.plan, pf.unit());
+    let t = &plan.target;
+    let find = |name: &str| r.find(name);
+    let val = |name: &str, f: &dyn Fn(&Measured) -> serde_json::Value| {
+        find(name).map_or(serde_json::Value::Null, |i| f(&results[i]))
+    };
+    let obj = |f: &dyn Fn(&Measured) -> serde_json::Value| {
+        let mut m = serde_json::Map::new();
+        for name in ORDER {
+            m.insert(name.to_string(), val(name, f));
+        }
+        serde_json::Value::Object(m)
+    };
+    let json = serde_json::json!({
+        "spec": plan.prog.name,
+        "target": t.name,
+        "unit": unit,
+        "method": pf.method(),
+        "steps": a.steps,
+        "step": obj(&|m| serde_json::json!((m.mean() * 100.0).round() / 100.0)),
+        "min": obj(&|m| serde_json::json!(m.min())),
+        "max": obj(&|m| serde_json::json!(m.max())),
+        "qloop_equals_plain_mul": identical,
+        "goals": goals.iter().map(|g| serde_json::json!({"goal": g.text, "met": g.met})).collect::<Vec<_>>(),
+    });
+    let text = serde_json::to_string_pretty(&json).unwrap_or_default() + "\n";
+    crate::cli::files::write_atomic(path, &text)?;
+    println!("\nwrote {}", path.display());
+    Ok(())
 }
