@@ -18,74 +18,163 @@ pub fn module(plan: &Plan) -> TokenStream {
     let prog = &plan.prog;
     let modname = format_ident!("{}", prog.name);
     let doc = super::module_doc(plan, "fixed-point controller");
-    let kinds = |k: SigKind| prog.ids_of(k).collect::<Vec<_>>();
-    let (inputs, states, outputs) = (
-        kinds(SigKind::Input),
-        kinds(SigKind::State),
-        kinds(SigKind::Output),
-    );
+    let sigs = Sigs::new(plan);
+    let structs = api_structs(plan, &sigs);
+    let tables = super::signal_tables(plan);
+    let controller = controller_struct(plan, &sigs);
+    let state_api = state_methods(plan, &sigs);
+    let bits_api = bits_methods(plan, &sigs);
+    let step = step_method(plan, &sigs);
+    let allows = super::allowed_lints();
+    let period_us = Literal::u64_suffixed((prog.period * 1e6).round() as u64);
+    let keep = if plan.vals.iter().any(|v| v.network) {
+        keep_fn()
+    } else {
+        quote! {}
+    };
+    quote! {
+        #[doc = #doc]
+        #[allow(#allows)]
+        pub mod #modname {
+            #keep
 
+            #structs
+
+            #tables
+
+            #controller
+
+            impl Controller {
+                /// Sample period in microseconds.
+                pub const PERIOD_US: u64 = #period_us;
+
+                #state_api
+
+                #bits_api
+
+                #step
+            }
+        }
+    }
+}
+
+/// The controller's inputs, states and outputs in declaration order.
+struct Sigs {
+    inputs: Vec<SigId>,
+    states: Vec<SigId>,
+    outputs: Vec<SigId>,
+}
+
+impl Sigs {
+    fn new(plan: &Plan) -> Sigs {
+        let kinds = |k: SigKind| plan.prog.ids_of(k).collect::<Vec<_>>();
+        Sigs {
+            inputs: kinds(SigKind::Input),
+            states: kinds(SigKind::State),
+            outputs: kinds(SigKind::Output),
+        }
+    }
+}
+
+/// A signal's field name.
+fn ident(plan: &Plan, id: SigId) -> Ident {
+    format_ident!("{}", plan.prog.sig(id).name)
+}
+
+/// `Inputs`, `Outputs` and `States`: the API's `fixed` values, with their doc lines.
+fn api_structs(plan: &Plan, sigs: &Sigs) -> TokenStream {
     let field = |id: &SigId| {
-        let s = prog.sig(*id);
-        let name = format_ident!("{}", s.name);
+        let name = ident(plan, *id);
         let ty = fixed_ty(plan.format(*id));
         let d = super::sig_doc(plan, *id);
         quote! { #[doc = #d] pub #name: #ty, }
     };
-    let in_fields = inputs.iter().map(field);
-    let out_fields = outputs.iter().map(field);
-    let st_fields = states.iter().map(field);
+    let in_fields = sigs.inputs.iter().map(field);
+    let out_fields = sigs.outputs.iter().map(field);
+    let st_fields = sigs.states.iter().map(field);
+    quote! {
+        /// Inputs of one step. Each is clamped to its declared range on entry.
+        #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+        pub struct Inputs { #(#in_fields)* }
 
-    let raw_fields = states.iter().map(|id| {
-        let name = format_ident!("{}", prog.sig(*id).name);
+        /// Outputs of one step.
+        #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+        pub struct Outputs { #(#out_fields)* }
+
+        /// A snapshot of the controller's states.
+        #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+        pub struct States { #(#st_fields)* }
+    }
+}
+
+/// `Controller` (its states as raw integers) and its `Default`.
+fn controller_struct(plan: &Plan, sigs: &Sigs) -> TokenStream {
+    let raw_fields = sigs.states.iter().map(|id| {
+        let name = ident(plan, *id);
         let ty = int_ty(plan.format(*id).ty);
         quote! { #name: #ty, }
     });
+    quote! {
+        /// The controller: its states as raw integers.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        pub struct Controller { #(#raw_fields)* }
+
+        impl Default for Controller {
+            fn default() -> Self {
+                Self::new()
+            }
+        }
+    }
+}
+
+/// `new`, `states` and `set_states` (which saturates each state to its bounds).
+fn state_methods(plan: &Plan, sigs: &Sigs) -> TokenStream {
+    let states = &sigs.states;
     let raw_inits = states.iter().map(|id| {
-        let name = format_ident!("{}", prog.sig(*id).name);
+        let name = ident(plan, *id);
         let lit = lit(plan.raw_init(*id), plan.format(*id).ty);
         quote! { #name: #lit, }
     });
     let getters = states.iter().map(|id| {
-        let name = format_ident!("{}", prog.sig(*id).name);
+        let name = ident(plan, *id);
         let ty = fixed_ty(plan.format(*id));
         quote! { #name: <#ty>::from_bits(self.#name), }
     });
     let setters = states.iter().map(|id| {
-        let name = format_ident!("{}", prog.sig(*id).name);
+        let name = ident(plan, *id);
         let q = plan.format(*id);
         let (lo, hi) = plan.bounds(*id);
         let (lo, hi) = (lit(lo, q.ty), lit(hi, q.ty));
         quote! { self.#name = ::core::cmp::max(::core::cmp::min(s.#name.to_bits(), #hi), #lo); }
     });
+    // Controllers without states keep the same signature.
+    let (no_states, _) = super::unused_params(states.is_empty(), false);
+    quote! {
+        /// The controller in its declared initial state.
+        pub const fn new() -> Self {
+            Controller { #(#raw_inits)* }
+        }
 
-    let load_states = states.iter().map(|id| {
-        let name = format_ident!("{}", prog.sig(*id).name);
-        let ty = int_ty(plan.format(*id).ty);
-        quote! { let mut #name: #ty = self.#name; }
-    });
-    let decl_outputs = outputs.iter().map(|id| {
-        let name = format_ident!("{}", prog.sig(*id).name);
-        let ty = int_ty(plan.format(*id).ty);
-        quote! { let mut #name: #ty = 0; }
-    });
-    let body = block(plan, &plan.body);
-    let save_states = states.iter().map(|id| {
-        let name = format_ident!("{}", prog.sig(*id).name);
-        quote! { self.#name = #name; }
-    });
-    let ret = outputs.iter().map(|id| {
-        let name = format_ident!("{}", prog.sig(*id).name);
-        let ty = fixed_ty(plan.format(*id));
-        quote! { #name: <#ty>::from_bits(#name), }
-    });
-    let allows = super::allowed_lints();
-    let period_us = Literal::u64_suffixed((prog.period * 1e6).round() as u64);
-    let tables = super::signal_tables(plan);
-    let [ni, no, ns] = [&inputs, &outputs, &states].map(|v| Literal::usize_unsuffixed(v.len()));
+        /// The current states.
+        pub fn states(&self) -> States {
+            States { #(#getters)* }
+        }
+
+        /// Overwrites the states, saturating each to its declared range.
+        pub fn set_states(&mut self, s: States) {
+            #no_states
+            #(#setters)*
+        }
+    }
+}
+
+/// `state_bits` and `step_bits`: the raw-integer API for generic runners.
+fn bits_methods(plan: &Plan, sigs: &Sigs) -> TokenStream {
+    let (inputs, states, outputs) = (&sigs.inputs, &sigs.states, &sigs.outputs);
+    let [ni, no, ns] = [inputs, outputs, states].map(|v| Literal::usize_unsuffixed(v.len()));
     let in_bits = inputs.iter().enumerate().map(|(k, id)| {
         let k = Literal::usize_unsuffixed(k);
-        let name = format_ident!("{}", prog.sig(*id).name);
+        let name = ident(plan, *id);
         let q = plan.format(*id);
         let (ty, fty) = (int_ty(q.ty), fixed_ty(q));
         // Saturated to the type: its limits as i64 (`u64::MAX as i64` would be -1; `check`
@@ -103,102 +192,70 @@ pub fn module(plan: &Plan) -> TokenStream {
         }
     });
     let out_bits = outputs.iter().map(|id| {
-        let name = format_ident!("{}", prog.sig(*id).name);
+        let name = ident(plan, *id);
         quote! { o.#name.to_bits() as i64, }
     });
     let state_bits = states.iter().map(|id| {
-        let name = format_ident!("{}", prog.sig(*id).name);
+        let name = ident(plan, *id);
         quote! { self.#name as i64, }
     });
+    // Controllers without inputs keep the same signature.
+    let (_, no_inputs) = super::unused_params(false, inputs.is_empty());
+    quote! {
+        /// The current states as raw integers (`value · 2^frac`), in the order of
+        /// [`STATES`].
+        pub fn state_bits(&self) -> [i64; #ns] {
+            [#(#state_bits)*]
+        }
 
+        /// [`Controller::step`] on raw integers, for generic runners (simulators, HAL
+        /// glue): inputs in the order of [`INPUTS`], each saturated to its type, and
+        /// outputs in the order of [`OUTPUTS`].
+        pub fn step_bits(&mut self, i: [i64; #ni]) -> [i64; #no] {
+            #no_inputs
+            let o = self.step(Inputs { #(#in_bits)* });
+            [#(#out_bits)*]
+        }
+    }
+}
+
+/// `step`: loads the states, runs the plan's body, saves the states, returns the outputs.
+fn step_method(plan: &Plan, sigs: &Sigs) -> TokenStream {
+    let load_states = sigs.states.iter().map(|id| {
+        let name = ident(plan, *id);
+        let ty = int_ty(plan.format(*id).ty);
+        quote! { let mut #name: #ty = self.#name; }
+    });
+    let decl_outputs = sigs.outputs.iter().map(|id| {
+        let name = ident(plan, *id);
+        let ty = int_ty(plan.format(*id).ty);
+        quote! { let mut #name: #ty = 0; }
+    });
+    let body = block(plan, &plan.body);
+    let save_states = sigs.states.iter().map(|id| {
+        let name = ident(plan, *id);
+        quote! { self.#name = #name; }
+    });
+    let ret = sigs.outputs.iter().map(|id| {
+        let name = ident(plan, *id);
+        let ty = fixed_ty(plan.format(*id));
+        quote! { #name: <#ty>::from_bits(#name), }
+    });
     // A step that reads no input still takes them (one signature for every controller).
     let unused_inputs = if plan.vals.iter().any(|v| matches!(v.op, Op::Input(_))) {
         quote! {}
     } else {
         quote! { let _ = inputs; }
     };
-    let keep = if plan.vals.iter().any(|v| v.network) {
-        keep_fn()
-    } else {
-        quote! {}
-    };
-    // Controllers without states or inputs keep the same signatures.
-    let (no_states, no_inputs) = super::unused_params(states.is_empty(), inputs.is_empty());
     quote! {
-        #[doc = #doc]
-        #[allow(#allows)]
-        pub mod #modname {
-            #keep
-
-            /// Inputs of one step. Each is clamped to its declared range on entry.
-            #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-            pub struct Inputs { #(#in_fields)* }
-
-            /// Outputs of one step.
-            #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-            pub struct Outputs { #(#out_fields)* }
-
-            /// A snapshot of the controller's states.
-            #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-            pub struct States { #(#st_fields)* }
-
-            #tables
-
-            /// The controller: its states as raw integers.
-            #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-            pub struct Controller { #(#raw_fields)* }
-
-            impl Default for Controller {
-                fn default() -> Self {
-                    Self::new()
-                }
-            }
-
-            impl Controller {
-                /// Sample period in microseconds.
-                pub const PERIOD_US: u64 = #period_us;
-
-                /// The controller in its declared initial state.
-                pub const fn new() -> Self {
-                    Controller { #(#raw_inits)* }
-                }
-
-                /// The current states.
-                pub fn states(&self) -> States {
-                    States { #(#getters)* }
-                }
-
-                /// Overwrites the states, saturating each to its declared range.
-                pub fn set_states(&mut self, s: States) {
-                    #no_states
-                    #(#setters)*
-                }
-
-                /// The current states as raw integers (`value · 2^frac`), in the order of
-                /// [`STATES`].
-                pub fn state_bits(&self) -> [i64; #ns] {
-                    [#(#state_bits)*]
-                }
-
-                /// [`Controller::step`] on raw integers, for generic runners (simulators, HAL
-                /// glue): inputs in the order of [`INPUTS`], each saturated to its type, and
-                /// outputs in the order of [`OUTPUTS`].
-                pub fn step_bits(&mut self, i: [i64; #ni]) -> [i64; #no] {
-                    #no_inputs
-                    let o = self.step(Inputs { #(#in_bits)* });
-                    [#(#out_bits)*]
-                }
-
-                /// One control period: reads the inputs, updates the states, returns the outputs.
-                pub fn step(&mut self, inputs: Inputs) -> Outputs {
-                    #unused_inputs
-                    #(#load_states)*
-                    #(#decl_outputs)*
-                    #body
-                    #(#save_states)*
-                    Outputs { #(#ret)* }
-                }
-            }
+        /// One control period: reads the inputs, updates the states, returns the outputs.
+        pub fn step(&mut self, inputs: Inputs) -> Outputs {
+            #unused_inputs
+            #(#load_states)*
+            #(#decl_outputs)*
+            #body
+            #(#save_states)*
+            Outputs { #(#ret)* }
         }
     }
 }
