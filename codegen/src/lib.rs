@@ -12,12 +12,12 @@ pub mod diag;
 pub mod emit;
 pub mod interp;
 pub mod ir;
+pub mod lang;
 pub mod lower;
 pub mod prop_eval;
 pub mod prove;
 pub mod qformat;
 pub mod report;
-pub mod lang;
 pub mod text;
 
 pub use diag::Diag;

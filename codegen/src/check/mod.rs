@@ -4,9 +4,9 @@
 
 use crate::diag::{Diag, Result};
 use crate::ir::*;
-use crate::qformat::{IntTy, QFormat, Rounding, WIDTHS};
 use crate::lang::ast::*;
 use crate::lang::parse::doc_lines;
+use crate::qformat::{IntTy, QFormat, Rounding, WIDTHS};
 
 mod props;
 use proc_macro2::Span;
