@@ -1,51 +1,44 @@
 //! `qloop bench`: the AVR run end to end (needs avr-gcc, avr-libc, simavr and libsimavr-dev),
 //! Cortex-M (arm-none-eabi-gcc, qemu-system-arm) and RV32 (riscv64-unknown-elf-gcc,
-//! qemu-system-riscv32) under QEMU (each skipped with a note without its tools unless
-//! QLOOP_REQUIRE_TOOLS is set), and the errors that need no tools.
+//! qemu-system-riscv32) under QEMU (each skipped without its tools, and listed at the end of
+//! `cargo test --workspace`, unless QLOOP_REQUIRE_TOOLS is set), and the errors that need no
+//! tools.
 
 mod common;
 use common::{qloop, spec, text};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
-
-fn runs(prog: &str, args: &[&str]) -> bool {
-    Command::new(prog)
-        .args(args)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success())
-}
+use test_tools::{find, hidden, skip};
 
 /// What is missing for the AVR bench, if anything.
 fn missing_avr_tools() -> Vec<&'static str> {
     let mut m = Vec::new();
-    if !runs("avr-gcc", &["--version"]) {
+    if find("avr-gcc").is_none() {
         m.push("avr-gcc (gcc-avr, avr-libc)");
     }
-    if !runs("cc", &["--version"]) {
+    if find("cc").is_none() {
         m.push("a host cc");
     }
     let header = Path::new("/usr/include/simavr/sim_avr.h").is_file()
-        || runs("pkg-config", &["--exists", "simavr"]);
-    if !header {
+        || Command::new("pkg-config")
+            .args(["--exists", "simavr"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success());
+    if !header || hidden("simavr") {
         m.push("libsimavr (simavr, libsimavr-dev)");
     }
     m
 }
 
-/// Whether to run a tool-dependent test: skip with a note, or fail under
-/// QLOOP_REQUIRE_TOOLS.
+/// Whether to run a tool-dependent test: with something missing, the test is skipped (and
+/// listed at the end of `cargo test --workspace`), or fails under QLOOP_REQUIRE_TOOLS.
 fn tools_present(missing: &[&str]) -> bool {
     if missing.is_empty() {
         return true;
     }
-    assert!(
-        std::env::var_os("QLOOP_REQUIRE_TOOLS").is_none(),
-        "QLOOP_REQUIRE_TOOLS is set but these are missing: {}",
-        missing.join(", ")
-    );
-    eprintln!("skipping: missing {}", missing.join(", "));
+    skip(format!("missing {}", missing.join(", ")));
     false
 }
 
@@ -151,10 +144,10 @@ fn bench_koren_masory_on_atmega328p() {
 #[test]
 fn bench_koren_masory_on_cortex_m0_under_qemu() {
     let mut missing = Vec::new();
-    if !runs("arm-none-eabi-gcc", &["--version"]) {
+    if find("arm-none-eabi-gcc").is_none() {
         missing.push("arm-none-eabi-gcc (gcc-arm-none-eabi, libnewlib-arm-none-eabi)");
     }
-    if !runs("qemu-system-arm", &["--version"]) {
+    if find("qemu-system-arm").is_none() {
         missing.push("qemu-system-arm");
     }
     if !tools_present(&missing) {
@@ -180,10 +173,10 @@ fn bench_koren_masory_on_cortex_m0_under_qemu() {
 #[test]
 fn bench_koren_masory_on_rv32_under_qemu() {
     let mut missing = Vec::new();
-    if !runs("riscv64-unknown-elf-gcc", &["--version"]) {
+    if find("riscv64-unknown-elf-gcc").is_none() {
         missing.push("riscv64-unknown-elf-gcc (gcc-riscv64-unknown-elf)");
     }
-    if !runs("qemu-system-riscv32", &["--version"]) {
+    if find("qemu-system-riscv32").is_none() {
         missing.push("qemu-system-riscv32 (qemu-system-misc)");
     }
     if !tools_present(&missing) {

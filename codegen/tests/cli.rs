@@ -234,8 +234,7 @@ fn prove_refuses_a_spec_beyond_the_length_limit() {
 /// could not finish as unknown and exits 1; without a terminal it prints its progress as lines.
 #[test]
 fn prove_honours_its_total_timeout_and_reports_progress() {
-    if Command::new("z3").arg("--version").output().is_err() {
-        eprintln!("skipping: z3 is not installed");
+    if test_tools::tool("z3").is_none() {
         return;
     }
     let start = std::time::Instant::now();

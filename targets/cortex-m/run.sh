@@ -5,7 +5,8 @@
 #   targets/cortex-m/run.sh              # from anywhere; exit 0 iff every machine PASSes
 #   CARGO_FLAGS=--locked targets/cortex-m/run.sh
 #
-# Outputs land in targets/cortex-m/target/run/ (host.txt, <machine>.txt, <machine>.err).
+# Outputs land in targets/cortex-m/target/run/ (host.txt, <machine>.txt, <machine>.err), or in
+# $CARGO_TARGET_DIR/run/ when CARGO_TARGET_DIR is set (relative to this directory).
 # Needs qemu-system-arm (apt-get install qemu-system-arm) and the Rust targets
 # thumbv6m-none-eabi and thumbv7em-none-eabihf (rustup target add ...).
 set -euo pipefail
@@ -13,7 +14,8 @@ set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")"
 read -r -a cargo_flags <<< "${CARGO_FLAGS:-}"
 bin=qloop-cortex-m
-out=target/run
+target_dir=${CARGO_TARGET_DIR:-target}
+out=$target_dir/run
 mkdir -p "$out"
 
 # machine:target:core
@@ -39,12 +41,12 @@ if [[ -n $size ]]; then
     echo "== size"
     for m in "${machines[@]}"; do
         IFS=: read -r _ target _ <<< "$m"
-        "$size" "target/$target/release/$bin"
+        "$size" "$target_dir/$target/release/$bin"
     done
 fi
 
 echo "== host reference"
-"target/release/$bin" > "$out/host.txt"
+"$target_dir/release/$bin" > "$out/host.txt"
 lines=$(wc -l < "$out/host.txt")
 last=$(tail -n 1 "$out/host.txt")
 if [[ $last != "qloop-cortex-m done "* ]]; then
@@ -62,7 +64,7 @@ for m in "${machines[@]}"; do
     rc=0
     timeout 60 qemu-system-arm -M "$machine" -nographic \
         -semihosting-config enable=on,target=native -icount shift=10 \
-        -kernel "target/$target/release/$bin" \
+        -kernel "$target_dir/$target/release/$bin" \
         < /dev/null > "$out/$machine.txt" 2> "$out/$machine.err" || rc=$?
     sed 's/^/  /' "$out/$machine.err"
     if ((rc != 0)); then

@@ -88,23 +88,11 @@ pub fn spec_stems() -> Vec<String> {
     all_specs().into_iter().map(|(s, _)| s).collect()
 }
 
-/// An external tool (compiler, simulator, analyser) on `PATH`. Missing, it skips the calling
-/// test with a note, unless `QLOOP_REQUIRE_TOOLS` is set (as `.ci/run` does, after installing
-/// them), in which case the test fails.
-pub fn tool(name: &str) -> Option<PathBuf> {
-    let found = std::env::var_os("PATH").and_then(|paths| {
-        std::env::split_paths(&paths)
-            .map(|d| d.join(name))
-            .find(|p| p.is_file())
-    });
-    if found.is_none() {
-        if std::env::var_os("QLOOP_REQUIRE_TOOLS").is_some() {
-            panic!("`{name}` is required (QLOOP_REQUIRE_TOOLS is set) but not on PATH");
-        }
-        eprintln!("skipping: `{name}` is not installed");
-    }
-    found
-}
+/// External tools (compilers, simulators, analysers): [`tool`] finds one on `PATH` or skips the
+/// calling test with a note, and the skips are listed at the end of `cargo test --workspace`;
+/// with `QLOOP_REQUIRE_TOOLS` set (as `.ci/run` does, after installing them) a missing tool
+/// fails the test. Shared with `codegen/tests` through the `test-tools` crate.
+pub use test_tools::{hidden, rust_target, skip, tool};
 
 /// A fresh scratch directory under the target directory, named after the test.
 pub fn scratch(name: &str) -> PathBuf {

@@ -11,8 +11,9 @@
 //!   reports 0 alarms and proves the ACSL contract, with the host's 32-bit `int`
 //!   (machdep x86_64) and with AVR's 16-bit `int` (machdep x86_16).
 //!
-//! Tools that are not installed skip their part with a note; `QLOOP_REQUIRE_TOOLS` (set by
-//! `.ci/run`) turns a missing tool into a failure.
+//! Tools that are not installed skip their part, which is listed at the end of `cargo test
+//! --workspace` (`qloop_tests::tool`); `QLOOP_REQUIRE_TOOLS` (set by `.ci/run`) turns a missing
+//! tool into a failure.
 
 use qloop::interp::step_fixed;
 use qloop::ir::{SigId, SigKind};

@@ -12,7 +12,7 @@
 //!
 //! Every C file is compiled with `-std=c99 -Wall -Wextra -Werror -Wdouble-promotion
 //! -pedantic`, and the controllers' object files must reference no external symbol (no libm,
-//! no libc). Without `gcc` on the `PATH` the tests print a message and pass.
+//! no libc). Without `gcc` on the `PATH` the tests are skipped (see `qloop_tests::tool`).
 
 use qloop::emit::c_float;
 use qloop::ir::{Cond, Expr, Program, SigId, SigKind, Stmt};
@@ -31,17 +31,10 @@ const CFLAGS: &[&str] = &[
     "-O2",
 ];
 
-/// Whether the host has `gcc`; prints why a test is skipped when not.
-fn have_gcc(test: &str) -> bool {
-    let ok = Command::new("gcc")
-        .arg("--version")
-        .output()
-        .map(|o| o.status.success())
-        .unwrap_or(false);
-    if !ok {
-        println!("SKIPPED {test}: no `gcc` on the PATH");
-    }
-    ok
+/// Whether the host has `gcc`; without it the test is skipped (and listed at the end of
+/// `cargo test --workspace`), or fails under QLOOP_REQUIRE_TOOLS.
+fn have_gcc() -> bool {
+    qloop_tests::tool("gcc").is_some()
 }
 
 /// A fresh scratch directory under cargo's per-test temporary directory.
@@ -545,7 +538,7 @@ fn check_step(
 
 #[test]
 fn float_step_matches_the_f64_reference_for_every_seed_spec() {
-    if !have_gcc("float_step_matches_the_f64_reference_for_every_seed_spec") {
+    if !have_gcc() {
         return;
     }
     for (file, plan) in seed_specs() {
@@ -702,7 +695,7 @@ fn build_div(dir: &Path) -> PathBuf {
 
 #[test]
 fn division_baselines_settle_where_the_reference_does() {
-    if !have_gcc("division_baselines_settle_where_the_reference_does") {
+    if !have_gcc() {
         return;
     }
     let exe = build_div(&scratch("div"));
@@ -808,7 +801,7 @@ fn division_baselines_settle_where_the_reference_does() {
 /// from its constant table.
 #[test]
 fn division_baseline_constants_are_the_specs() {
-    if !have_gcc("division_baseline_constants_are_the_specs") {
+    if !have_gcc() {
         return;
     }
     let src = std::fs::read_to_string(spec_dir().join("koren_masory_1981.qloop")).expect("spec");
@@ -921,7 +914,7 @@ controller c_features {
 
 #[test]
 fn float_step_of_every_construct_matches_the_real_interpreter() {
-    if !have_gcc("float_step_of_every_construct_matches_the_real_interpreter") {
+    if !have_gcc() {
         return;
     }
     let plan = qloop::compile_str(FEATURES, &Target::default()).expect("features spec");
