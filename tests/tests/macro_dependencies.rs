@@ -7,20 +7,40 @@ use std::process::Command;
 #[test]
 fn the_macro_depends_on_the_core_alone() {
     let out = Command::new(env!("CARGO"))
-        .args(["tree", "-p", "qloop-macros", "-e", "normal,build", "--prefix", "none"])
+        .args([
+            "tree",
+            "-p",
+            "qloop-macros",
+            "-e",
+            "normal,build",
+            "--prefix",
+            "none",
+        ])
         .args(["--offline", "--locked"])
         .current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
         .output()
         .expect("run cargo tree");
     let text = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let crates: Vec<&str> = text
         .lines()
         .filter_map(|l| l.split_whitespace().next())
         .collect();
     assert!(crates.contains(&"qloop-core"), "{text}");
     for banned in [
-        "qloop", "serde", "serde_json", "sha2", "num-bigint", "toml", "clap", "miette", "rayon",
+        "qloop",
+        "serde",
+        "serde_json",
+        "sha2",
+        "num-bigint",
+        "toml",
+        "clap",
+        "miette",
+        "rayon",
     ] {
         assert!(
             !crates.contains(&banned),

@@ -1,0 +1,294 @@
+//! Moving a value's binary point: exact left shifts, rounding right shifts (floor, or nearest
+//! without an overflowing `x + 2^(n−1)`), rescaling to a format, and clamps (saturation).
+//! Rounding happens only here, and each rounding adds its error to the value's bound.
+
+use super::lir::{LStmt, Op, ValId};
+use super::{shl_exact, up_f64, Lowerer, NewVal};
+use crate::diag::{Diag, Result};
+use crate::qformat::{pow2, IntTy, Rounding};
+use proc_macro2::Span;
+
+impl Lowerer<'_> {
+    /// `v · 2^k` exactly, by a left shift. A constant is shifted at compile time, so no shift
+    /// ever reaches its operand's width (a zero can take any binary point).
+    pub(super) fn shl(
+        &mut self,
+        v: ValId,
+        k: u32,
+        span: Span,
+        out: &mut Vec<LStmt>,
+    ) -> Result<ValId> {
+        if k == 0 {
+            return Ok(v);
+        }
+        let x = self.v(v).clone();
+        let too_wide = || {
+            Diag::new(span, "an intermediate needs more than 64 bits").help(
+                "narrow the declared ranges, or pin coarser formats with `#[q(..)]` / `#[lsb(..)]`",
+            )
+        };
+        let lo = shl_exact(x.lo, k as i32).ok_or_else(too_wide)?;
+        let hi = shl_exact(x.hi, k as i32).ok_or_else(too_wide)?;
+        let frac = x.frac + k as i32;
+        if lo == hi {
+            let ty = self.working(lo, lo, span)?;
+            return Ok(self.push(
+                NewVal {
+                    op: Op::Const(lo),
+                    ty,
+                    frac,
+                    lo,
+                    hi: lo,
+                    err: x.err,
+                },
+                out,
+            ));
+        }
+        let ty = self.working(lo.min(x.lo), hi.max(x.hi), span)?;
+        let c = self.cast(v, ty, out);
+        Ok(self.push(
+            NewVal {
+                op: Op::Shl(c, k),
+                ty,
+                frac,
+                lo,
+                hi,
+                err: x.err,
+            },
+            out,
+        ))
+    }
+
+    /// Drops `n` fraction bits with the program's rounding. Where the result can take only
+    /// one value it is a constant, and a shift is never as wide as its operand: `floor` of a
+    /// value in `[-2^(w-1), 2^(w-1))` shifted by `n ≥ w - 1` is its sign, `x >> (w - 1)`.
+    pub(super) fn round(
+        &mut self,
+        v: ValId,
+        n: u32,
+        span: Span,
+        out: &mut Vec<LStmt>,
+    ) -> Result<ValId> {
+        if n == 0 {
+            return Ok(v);
+        }
+        let x = self.v(v).clone();
+        let (lo, hi) = self.rounded(x.lo, x.hi, n);
+        let frac = x.frac - n as i32;
+        let lsb_src = pow2(-x.frac);
+        // The most one rounding adds: floor drops up to 2^n - 1 source LSBs, nearest half of 2^n.
+        let added = match self.prog.rounding {
+            Rounding::Floor => (pow2(n as i32) - 1.0) * lsb_src,
+            Rounding::Nearest => pow2(n as i32 - 1) * lsb_src,
+        };
+        if lo == hi {
+            let err = if x.lo == x.hi && n <= 126 {
+                // A constant rounded at compile time: its exact rounding error, from the
+                // integers (the difference of the two values in f64 would cancel).
+                up_f64((x.lo - (lo << n)).unsigned_abs()) * lsb_src
+            } else if x.lo == x.hi {
+                // Rounded by more bits than an i128 shifts: at most one LSB of the result.
+                pow2(-frac)
+            } else {
+                added
+            };
+            let ty = self.working(lo, lo, span)?;
+            return Ok(self.push(
+                NewVal {
+                    op: Op::Const(lo),
+                    ty,
+                    frac,
+                    lo,
+                    hi: lo,
+                    err: x.err + err,
+                },
+                out,
+            ));
+        }
+        let mut src = v;
+        let mut x = x;
+        if self.prog.rounding == Rounding::Nearest {
+            let h = 1i128 << (n - 1);
+            if IntTy::signed_for(x.lo, x.hi + h, 8).is_none() {
+                return Ok(self.round_nearest_in_place(v, n, frac, added, out));
+            }
+            // The type holds the operand as well as the sum.
+            let ty = self.working(x.lo, x.hi + h, span)?;
+            let c = self.cast(src, ty, out);
+            let hv = self.push(NewVal::exact(Op::Const(h), ty, x.frac, (h, h)), out);
+            src = self.push(
+                NewVal {
+                    op: Op::Add(c, hv),
+                    ty,
+                    frac: x.frac,
+                    lo: x.lo + h,
+                    hi: x.hi + h,
+                    err: x.err,
+                },
+                out,
+            );
+            x = self.v(src).clone();
+        }
+        let k = n.min(x.ty.bits - 1);
+        Ok(self.push(
+            NewVal {
+                op: Op::Shr(src, k),
+                ty: x.ty,
+                frac,
+                lo,
+                hi,
+                err: x.err + added,
+            },
+            out,
+        ))
+    }
+
+    /// Nearest rounding of a full-width 64-bit value, where `x + 2^(n-1)` would overflow:
+    /// `(x >> n) + b` with `b = (x >> (n-1)) − 2·(x >> n)`, bit `n − 1` of `x`. Equal to
+    /// `(x + 2^(n-1)) >> n` (write `x = q·2^n + r`: both are `q + [r ≥ 2^(n-1)]`), and no
+    /// intermediate is wider than `x`. `b ∈ {0, 1}` is a fact about the two shifts of one `x`
+    /// that interval arithmetic cannot see, so it is marked claimed: the prover discharges it
+    /// with a whole-step query.
+    pub(super) fn round_nearest_in_place(
+        &mut self,
+        v: ValId,
+        n: u32,
+        frac: i32,
+        added: f64,
+        out: &mut Vec<LStmt>,
+    ) -> ValId {
+        let x = self.v(v).clone();
+        let (ty, f) = (x.ty, x.frac);
+        let q = self.push(
+            NewVal {
+                op: Op::Shr(v, n),
+                ty,
+                frac,
+                lo: x.lo >> n,
+                hi: x.hi >> n,
+                err: x.err,
+            },
+            out,
+        );
+        let (ql, qh) = (x.lo >> n, x.hi >> n);
+        let half = self.push(
+            NewVal {
+                op: Op::Shr(v, n - 1),
+                ty,
+                frac: f - n as i32 + 1,
+                lo: x.lo >> (n - 1),
+                hi: x.hi >> (n - 1),
+                err: x.err,
+            },
+            out,
+        );
+        let twice = self.push(
+            NewVal {
+                op: Op::Shl(q, 1),
+                ty,
+                frac: f - n as i32 + 1,
+                lo: 2 * ql,
+                hi: 2 * qh,
+                err: x.err,
+            },
+            out,
+        );
+        let bit = self.push(
+            NewVal::exact(Op::Sub(half, twice), ty, f - n as i32 + 1, (0, 1)),
+            out,
+        );
+        self.vals[bit.0].claimed = true;
+        self.push(
+            NewVal {
+                op: Op::Add(q, bit),
+                ty,
+                frac,
+                lo: ql,
+                hi: qh + 1,
+                err: x.err + added,
+            },
+            out,
+        )
+    }
+
+    /// `v` re-expressed with `frac` fraction bits.
+    pub(super) fn rescale(
+        &mut self,
+        v: ValId,
+        frac: i32,
+        span: Span,
+        out: &mut Vec<LStmt>,
+    ) -> Result<ValId> {
+        let f = self.v(v).frac;
+        if frac >= f {
+            self.shl(v, (frac - f) as u32, span, out)
+        } else {
+            self.round(v, (f - frac) as u32, span, out)
+        }
+    }
+
+    /// Saturates raw `v` into `[lo, hi]`, emitting only the sides the range analysis needs.
+    pub(super) fn clamp(
+        &mut self,
+        v: ValId,
+        lo: i128,
+        hi: i128,
+        out: &mut Vec<LStmt>,
+    ) -> Result<ValId> {
+        let mut cur = v;
+        let x = self.v(v).clone();
+        let tl = if x.lo < lo { x.lo.min(lo) } else { x.lo };
+        let th = if x.hi > hi { x.hi.max(hi) } else { x.hi };
+        let ty = self.working(tl, th, self.here)?;
+        if x.lo < lo {
+            cur = self.cast(cur, ty, out);
+            let c = self.push(NewVal::exact(Op::Const(lo), ty, x.frac, (lo, lo)), out);
+            let y = self.v(cur).clone();
+            cur = self.push(
+                NewVal {
+                    op: Op::Max(cur, c),
+                    ty,
+                    frac: x.frac,
+                    lo: lo.max(y.lo),
+                    hi: lo.max(y.hi),
+                    err: y.err,
+                },
+                out,
+            );
+        }
+        if x.hi > hi {
+            cur = self.cast(cur, ty, out);
+            let c = self.push(NewVal::exact(Op::Const(hi), ty, x.frac, (hi, hi)), out);
+            let y = self.v(cur).clone();
+            cur = self.push(
+                NewVal {
+                    op: Op::Min(cur, c),
+                    ty,
+                    frac: x.frac,
+                    lo: hi.min(y.lo),
+                    hi: hi.min(y.hi),
+                    err: y.err,
+                },
+                out,
+            );
+        }
+        if cur == v {
+            cur = self.cast(cur, ty, out);
+        }
+        Ok(cur)
+    }
+
+    /// The raw interval of `[lo, hi]` after dropping `n` fraction bits with the program's
+    /// rounding (what [`Self::round`] computes).
+    pub(super) fn rounded(&self, lo: i128, hi: i128, n: u32) -> (i128, i128) {
+        let n = n.min(127);
+        match self.prog.rounding {
+            Rounding::Floor => (lo >> n, hi >> n),
+            Rounding::Nearest if n == 0 => (lo, hi),
+            Rounding::Nearest => {
+                let h = 1i128 << (n - 1);
+                ((lo + h) >> n, (hi + h) >> n)
+            }
+        }
+    }
+}
