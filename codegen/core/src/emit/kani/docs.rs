@@ -59,6 +59,9 @@ pub(super) fn module_doc(plan: &Plan, skipped: &[(String, String)]) -> String {
         "\nAssumptions are early `return`s: under Kani a path that returns before an assertion \
          cannot violate it, so an early return restricts the proof exactly like `kani::assume`; \
          under `cargo test` the case is skipped.\n\n\
+         A failed assertion names its property (or invariant, or state) and the clause: under \
+         Kani with a literal message, one `kani::assert` per conjunct of an `ensure`; under \
+         `cargo test` with the values as well.\n\n\
          Conditions are evaluated exactly in `i128`: a signal is `raw · 2^-frac`, binary points \
          are aligned by left shifts, products add fraction bits, constants are their exact \
          binary values; every intermediate is bounded by 2^126 at generation time.\n\n\

@@ -2,7 +2,7 @@
 //! invariant (the initial obligations of `qloop prove`).
 
 use super::invariant::Invariants;
-use super::show::{show_cond, spaced};
+use super::show::{check, show_cond, spaced};
 use super::sigs::Sigs;
 use crate::lower::Plan;
 use proc_macro2::TokenStream;
@@ -19,14 +19,20 @@ pub(super) fn harness(plan: &Plan, sigs: &Sigs, invs: &Invariants) -> TokenStrea
     );
     let init_invs = prog.invariants.iter().zip(&invs.ok).filter_map(|(inv, f)| {
         let f = f.as_ref()?;
-        let msg = format!(
-            "invariant `{}` (`{}`) is false initially: {{:?}}",
+        let literal = format!(
+            "invariant `{}` (`{}`) is false initially",
             inv.name,
             show_cond(plan, &[], &inv.cond)
         );
+        let check = check(
+            &quote! { holds },
+            &literal,
+            &format!("{literal}: {{:?}}"),
+            quote! { pre },
+        );
         Some(quote! {
             let holds = #f(&pre);
-            assert!(holds, #msg, pre);
+            #check
         })
     });
     let init_doc_s = spaced(&init_doc);

@@ -2,7 +2,7 @@
 //! invariant obligations of `qloop prove`).
 
 use super::exact::Env;
-use super::show::{doc_lines, show_cond, spaced};
+use super::show::{check, doc_lines, show_cond, spaced};
 use super::sigs::Sigs;
 use super::Skipped;
 use crate::lower::Plan;
@@ -111,9 +111,12 @@ pub(super) fn harnesses(
             inv.name
         ));
         let harness = format_ident!("invariant_{}", inv.name);
-        let msg = format!(
-            "invariant `{}` (`{text}`) is false after a step: {{:?}} -> {{:?}}",
-            inv.name
+        let literal = format!("invariant `{}` (`{text}`) is false after a step", inv.name);
+        let check = check(
+            &quote! { holds },
+            &literal,
+            &format!("{literal}: {{:?}} -> {{:?}}"),
+            quote! { pre, post },
         );
         let doc_s = spaced(&doc);
         out.push(quote! {
@@ -132,7 +135,7 @@ pub(super) fn harnesses(
                         }
                         let (post, _) = step(#step_args);
                         let holds = #f(&post);
-                        assert!(holds, #msg, pre, post);
+                        #check
                     });
             }
         });

@@ -3,7 +3,7 @@
 //! controller itself.
 
 use super::invariant::Invariants;
-use super::show::int;
+use super::show::{check, int};
 use super::sigs::Sigs;
 use proc_macro2::TokenStream;
 use quote::quote;
@@ -33,11 +33,13 @@ pub(super) fn items(sigs: &Sigs, invs: &Invariants) -> TokenStream {
         quote! { (#lo..=#hi).contains(&i.#n) }
     });
     let bound_asserts = st_names.iter().zip(st_bounds).map(|(n, (lo, hi))| {
-        let msg = format!("{{}}: state `{n}` = raw {{}} is outside [{lo}, {hi}]");
+        let literal = format!("state `{n}` is outside its bounds [{lo}, {hi}] (raw)");
+        let fmt = format!("{{}}: state `{n}` = raw {{}} is outside [{lo}, {hi}]");
         let (lo, hi) = (int(*lo), int(*hi));
+        let check = check(&quote! { inside }, &literal, &fmt, quote! { when, s.#n });
         quote! {
             let inside = (#lo..=#hi).contains(&s.#n);
-            assert!(inside, #msg, when, s.#n);
+            #check
         }
     });
     let and_all = |v: Vec<TokenStream>| {

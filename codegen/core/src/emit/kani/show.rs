@@ -195,3 +195,33 @@ pub fn show_cond(plan: &Plan, params: &[String], c: &PCond) -> String {
     }
     go(plan, params, c, 0)
 }
+
+/// Asserts `holds`. Under Kani the message is a literal naming what failed (Kani reports a
+/// formatted message only as "a placeholder message"); under `cargo test` it is the formatted
+/// one, with the values (`fmt` and its `args`).
+pub(super) fn check(
+    holds: &TokenStream,
+    literal: &str,
+    fmt: &str,
+    args: TokenStream,
+) -> TokenStream {
+    quote! {
+        #[cfg(kani)]
+        kani::assert(#holds, #literal);
+        #[cfg(not(kani))]
+        assert!(#holds, #fmt, #args);
+    }
+}
+
+/// The conjuncts of a condition (`a && b && c` → `[a, b, c]`), each asserted on its own so
+/// that a failure names the clause.
+pub(super) fn conjuncts(c: &PCond) -> Vec<&PCond> {
+    match c {
+        PCond::And(a, b) => {
+            let mut v = conjuncts(a);
+            v.extend(conjuncts(b));
+            v
+        }
+        _ => vec![c],
+    }
+}
