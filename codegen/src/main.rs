@@ -110,6 +110,23 @@ fn run(cli: Cli) -> CliResult {
             work_dir.as_deref(),
         ),
         Cmd::Demo { out } => cli::demo::run(&out),
+        Cmd::Kani {
+            package,
+            timeout,
+            only,
+            solver,
+            json,
+            cargo,
+            grace_secs,
+        } => cli::kani::run(&cli::kani::KaniArgs {
+            package: &package,
+            timeout,
+            only: &only,
+            solver: solver.as_deref(),
+            json: json.as_deref(),
+            cargo: &cargo,
+            grace: grace_secs,
+        }),
         Cmd::Targets => cli::targets::run(),
     }
 }

@@ -190,6 +190,36 @@ pub enum Cmd {
         #[arg(long)]
         work_dir: Option<PathBuf>,
     },
+    /// Run every Kani harness of a crate one at a time, each with a time limit, and print a
+    /// table: harness, verdict, checks, seconds.
+    ///
+    /// Needs `cargo kani` (README, "Kani harnesses", says how to build it where `cargo kani
+    /// setup` cannot download). Run it in the workspace. Exit 0 only if every harness is
+    /// SUCCESSFUL; 1 if one fails, times out or does not compile.
+    Kani {
+        /// The package whose test harnesses to run.
+        #[arg(long, default_value = "qloop-verified")]
+        package: String,
+        /// Time limit per harness, in seconds (Kani's `--harness-timeout`).
+        #[arg(long, default_value_t = 120, value_parser = clap::value_parser!(u64).range(1..))]
+        timeout: u64,
+        /// Run only the harnesses whose name contains this text (repeatable).
+        #[arg(long)]
+        only: Vec<String>,
+        /// SAT solver for every harness: cadical, kissat, minisat, ... (overrides the
+        /// harnesses' `kani::solver` attributes).
+        #[arg(long)]
+        solver: Option<String>,
+        /// Also write the table as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// The cargo to run (for tests).
+        #[arg(long, default_value = "cargo", hide = true)]
+        cargo: String,
+        /// Seconds after the time limit at which a run's process group is killed.
+        #[arg(long, default_value_t = 300, hide = true)]
+        grace_secs: u64,
+    },
     /// List the built-in cost-model targets.
     Targets,
 }

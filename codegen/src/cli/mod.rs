@@ -10,6 +10,7 @@
 //! | `sweep` | [`sweep`], its report [`sweep_report`] |
 //! | `demo` | [`demo`] |
 //! | `bench` | [`bench`] |
+//! | `kani` | [`kani`] (runs the Kani harnesses of a crate) |
 //! | `targets` | [`targets`] |
 
 pub mod args;
@@ -20,6 +21,7 @@ pub mod error;
 pub mod files;
 pub mod gen;
 pub mod jit;
+pub mod kani;
 pub mod prove;
 pub mod sim;
 pub mod sweep;
