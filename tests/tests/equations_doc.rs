@@ -71,7 +71,7 @@ fn every_cited_file_and_item_exists() {
                 "invariant ",
             ]
             .iter()
-            .any(|kw| text.contains(&format!("{kw}{name}")))
+            .any(|kw| defines(&text, &format!("{kw}{name}")))
                 || (file.ends_with(".c") && text.contains(&format!(" {name}(")));
             if !defined {
                 missing.push(format!("{first}: `{name}` is not defined in {file}"));
@@ -113,4 +113,15 @@ fn every_cited_harness_is_generated() {
             "{span}: not generated"
         );
     }
+}
+
+/// Whether `text` has `decl` (`fn name`, ...) as a whole word: `fn exp_diff` is not
+/// `fn exp_diff2`.
+fn defines(text: &str, decl: &str) -> bool {
+    text.match_indices(decl).any(|(i, _)| {
+        !text[i + decl.len()..]
+            .chars()
+            .next()
+            .is_some_and(|c| c.is_alphanumeric() || c == '_')
+    })
 }

@@ -94,7 +94,7 @@ impl Lowerer<'_> {
         let t = t.clamp(xv.lo - 1, xv.hi + 1);
         let ty = self.working(xv.lo.min(t), xv.hi.max(t), self.here)?;
         let a = self.cast(v, ty, out);
-        let k = self.push(NewVal::exact(Op::Const(t), ty, xv.frac, (t, t)), out);
+        let k = self.push(NewVal::constant(t, ty, xv.frac, 0.0), out);
         Ok(self.boolean(Op::Cmp(op, a, k), xv.err, out))
     }
 
@@ -102,8 +102,8 @@ impl Lowerer<'_> {
     /// reference decides it): `0 < 1` or `1 < 0`.
     pub(super) fn decided(&mut self, truth: bool, out: &mut Vec<LStmt>) -> Result<ValId> {
         let ty = IntTy::signed(self.target.min_work_bits());
-        let zero = self.push(NewVal::exact(Op::Const(0), ty, 0, (0, 0)), out);
-        let one = self.push(NewVal::exact(Op::Const(1), ty, 0, (1, 1)), out);
+        let zero = self.push(NewVal::constant(0, ty, 0, 0.0), out);
+        let one = self.push(NewVal::constant(1, ty, 0, 0.0), out);
         let (a, b) = if truth { (zero, one) } else { (one, zero) };
         Ok(self.boolean(Op::Cmp(CmpOp::Lt, a, b), 0.0, out))
     }

@@ -40,8 +40,7 @@ impl Lowerer<'_> {
         if f.m == 0 {
             // c = 0, or x is identically 0: the product is exactly 0.
             let ty = IntTy::signed(self.target.min_work_bits());
-            let v = NewVal::exact(Op::Const(0), ty, f.frac, (0, 0));
-            return Ok(self.push(NewVal { err: f.err, ..v }, out));
+            return Ok(self.push(NewVal::constant(0, ty, f.frac, f.err), out));
         }
         let net = shift_add::best(f.m);
         let ty = self.network_type(&xv, &f, &net, claim, span)?;
@@ -57,7 +56,7 @@ impl Lowerer<'_> {
             err: f.err,
         };
         if hw {
-            let cm = self.push(NewVal::exact(Op::Const(f.m), ty, 0, (f.m, f.m)), out);
+            let cm = self.push(NewVal::constant(f.m, ty, 0, 0.0), out);
             return Ok(self.push(product(Op::Mul(xw, cm)), out));
         }
         let r = self.emit_network(xw, &xv, f.m, &net, ty, out);

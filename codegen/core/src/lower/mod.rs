@@ -309,6 +309,19 @@ struct NewVal {
 }
 
 impl NewVal {
+    /// The constant `c` (raw, at binary point `frac`), carrying error bound `err`; its interval
+    /// is `[c, c]`.
+    fn constant(c: i128, ty: IntTy, frac: i32, err: f64) -> NewVal {
+        NewVal {
+            op: Op::Const(c),
+            ty,
+            frac,
+            lo: c,
+            hi: c,
+            err,
+        }
+    }
+
     /// A value computed exactly from exact operands (error 0), with raw interval `[lo, hi]`.
     fn exact(op: Op, ty: IntTy, frac: i32, (lo, hi): (i128, i128)) -> NewVal {
         NewVal {
@@ -1014,17 +1027,7 @@ impl<'a> Lowerer<'a> {
         }
         let ty = self.working(raw, raw, span)?;
         let err = (c - raw as f64 * pow2(-frac)).abs();
-        Ok(self.push(
-            NewVal {
-                op: Op::Const(raw),
-                ty,
-                frac,
-                lo: raw,
-                hi: raw,
-                err,
-            },
-            out,
-        ))
+        Ok(self.push(NewVal::constant(raw, ty, frac, err), out))
     }
 
     /// Lowers two operands; a constant operand takes the other operand's binary point.

@@ -32,17 +32,7 @@ impl Lowerer<'_> {
         let frac = x.frac + k as i32;
         if lo == hi {
             let ty = self.working(lo, lo, span)?;
-            return Ok(self.push(
-                NewVal {
-                    op: Op::Const(lo),
-                    ty,
-                    frac,
-                    lo,
-                    hi: lo,
-                    err: x.err,
-                },
-                out,
-            ));
+            return Ok(self.push(NewVal::constant(lo, ty, frac, x.err), out));
         }
         let ty = self.working(lo.min(x.lo), hi.max(x.hi), span)?;
         let c = self.cast(v, ty, out);
@@ -93,17 +83,7 @@ impl Lowerer<'_> {
                 added
             };
             let ty = self.working(lo, lo, span)?;
-            return Ok(self.push(
-                NewVal {
-                    op: Op::Const(lo),
-                    ty,
-                    frac,
-                    lo,
-                    hi: lo,
-                    err: x.err + err,
-                },
-                out,
-            ));
+            return Ok(self.push(NewVal::constant(lo, ty, frac, x.err + err), out));
         }
         let mut src = v;
         let mut x = x;
@@ -115,7 +95,7 @@ impl Lowerer<'_> {
             // The type holds the operand as well as the sum.
             let ty = self.working(x.lo, x.hi + h, span)?;
             let c = self.cast(src, ty, out);
-            let hv = self.push(NewVal::exact(Op::Const(h), ty, x.frac, (h, h)), out);
+            let hv = self.push(NewVal::constant(h, ty, x.frac, 0.0), out);
             src = self.push(
                 NewVal {
                     op: Op::Add(c, hv),
@@ -242,7 +222,7 @@ impl Lowerer<'_> {
         let ty = self.working(tl, th, self.here)?;
         if x.lo < lo {
             cur = self.cast(cur, ty, out);
-            let c = self.push(NewVal::exact(Op::Const(lo), ty, x.frac, (lo, lo)), out);
+            let c = self.push(NewVal::constant(lo, ty, x.frac, 0.0), out);
             let y = self.v(cur).clone();
             cur = self.push(
                 NewVal {
@@ -258,7 +238,7 @@ impl Lowerer<'_> {
         }
         if x.hi > hi {
             cur = self.cast(cur, ty, out);
-            let c = self.push(NewVal::exact(Op::Const(hi), ty, x.frac, (hi, hi)), out);
+            let c = self.push(NewVal::constant(hi, ty, x.frac, 0.0), out);
             let y = self.v(cur).clone();
             cur = self.push(
                 NewVal {
