@@ -11,7 +11,9 @@ const FAKE: &str = r#"#!/bin/sh
 [ "$1" = kani ] || exit 101
 case "$*" in
   *--version*) echo "Kani Rust Verifier 0.67.0 (cargo plugin)"; exit 0 ;;
-  *" list "*) printf '%s' '{"kani-version":"0.67.0","standard-harnesses":{"src/lib.rs":["m::ok","m::bad","m::slow","m::hang"]},"contract-harnesses":{}}' > kani-list.json; exit 0 ;;
+  *"--harness m::model_matches_p "*"-Z function-contracts -Z stubbing "*) printf 'VERIFICATION:- SUCCESSFUL\nVerification Time: 0.5s\n'; exit 0 ;;
+  *"--harness m::model_matches_p "*) printf 'VERIFICATION:- FAILED\n'; exit 1 ;;
+  *" list "*) printf '%s' '{"kani-version":"0.67.0","standard-harnesses":{"src/lib.rs":["m::ok","m::bad","m::slow","m::hang"]},"contract-harnesses":{"src/lib.rs":["m::model_matches_p"]}}' > kani-list.json; exit 0 ;;
   *"--harness m::ok "*) printf 'VERIFICATION RESULT:\n ** 0 of 90 failed\n\nVERIFICATION:- SUCCESSFUL\nVerification Time: 0.12s\n'; exit 0 ;;
   *"--harness m::bad "*) printf 'VERIFICATION RESULT:\n ** 1 of 459 failed (2 unreachable)\n\nFailed Checks: property `p`: `x <= 1` is false after the step\n File: "src/lib.rs", line 3\n\nVERIFICATION:- FAILED\nVerification Time: 6.5s\n'; exit 1 ;;
   *"--harness m::slow "*) printf 'CBMC failed\nVERIFICATION:- FAILED\nCBMC timed out. You may want to rerun your proof with a larger timeout.\n'; exit 1 ;;
@@ -41,11 +43,37 @@ fn qloop(dir: &Path, args: &[&str]) -> Output {
         .expect("run qloop")
 }
 
+/// Every harness runs with contracts and stubbing enabled (the property harnesses
+/// `stub_verified` their products); the fake fails the harness otherwise.
+#[test]
+fn harnesses_run_with_contracts_and_stubbing_enabled() {
+    let dir = fake_dir("contracts");
+    let o = qloop(&dir, &["--only", "m::model_matches_p"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{out}");
+    assert!(out.contains("1 harnesses: 1 successful"), "{out}");
+}
+
 #[test]
 fn the_table_names_verdicts_checks_and_the_failed_clause() {
     let dir = fake_dir("table");
     let start = std::time::Instant::now();
-    let o = qloop(&dir, &["--timeout", "1", "--grace-secs", "1"]);
+    let o = qloop(
+        &dir,
+        &[
+            "--timeout",
+            "1",
+            "--grace-secs",
+            "1",
+            "--only",
+            "m::ok",
+            "--only",
+            "m::bad",
+        ]
+        .into_iter()
+        .chain(["--only", "m::slow", "--only", "m::hang"])
+        .collect::<Vec<_>>(),
+    );
     let out = String::from_utf8_lossy(&o.stdout);
     assert_eq!(o.status.code(), Some(1), "{out}");
     let row = |h: &str| {

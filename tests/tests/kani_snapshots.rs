@@ -34,13 +34,36 @@ fn harness_snapshots() {
                 .iter()
                 .map(|p| format!("property_{}", p.name)),
         );
+        // Properties checked on a step model under Kani have a harness proving the model.
+        harnesses.extend(
+            plan.prog
+                .properties
+                .iter()
+                .filter(|p| text.contains(&format!("fn model_{}(", p.name)))
+                .map(|p| format!("model_matches_{}", p.name)),
+        );
         for h in &harnesses {
             let at = text
                 .find(&format!("fn {h}()"))
                 .unwrap_or_else(|| panic!("{stem}: harness {h} missing"));
-            let attrs = &text[..at];
-            assert!(
-                attrs.ends_with("#[test]\n    #[cfg_attr(kani, kani::proof)]\n    "),
+            // The attributes: `#[test]`, the Kani proof, then any `stub_verified` or solver.
+            let attrs: Vec<&str> = text[..at]
+                .lines()
+                .rev()
+                .skip(1)
+                .take_while(|l| l.trim_start().starts_with("#["))
+                .map(str::trim)
+                .collect();
+            let stubs = attrs
+                .iter()
+                .take_while(|a| {
+                    a.starts_with("#[cfg_attr(kani, kani::stub_verified(")
+                        || a.starts_with("#[cfg_attr(kani, kani::solver(")
+                })
+                .count();
+            assert_eq!(
+                &attrs[stubs..],
+                &["#[cfg_attr(kani, kani::proof)]", "#[test]"],
                 "{stem}: {h} is not both a test and a Kani proof"
             );
         }
@@ -50,6 +73,55 @@ fn harness_snapshots() {
             "{stem}: unexpected harnesses"
         );
         insta::assert_snapshot!(format!("{stem}_kani"), text);
+    }
+}
+
+/// The chain of assumptions is closed: every function a harness `stub_verified`s has a
+/// `proof_for_contract` harness, every contract harness checks a function some harness
+/// stubs, and every step model a property harness runs under Kani has its
+/// `model_matches_*` harness. The 1981 gain-loop and estimator contraction are modelled.
+#[test]
+fn every_stub_has_a_verified_contract_and_every_model_a_match() {
+    let mut modelled = Vec::new();
+    for (stem, src) in all_specs() {
+        let text = qloop::gen_kani(&compile(&src));
+        let names = |pat: &str| -> std::collections::BTreeSet<String> {
+            text.match_indices(pat)
+                .map(|(i, _)| {
+                    let rest = &text[i + pat.len()..];
+                    rest[..rest.find(')').expect("closing parenthesis")].to_string()
+                })
+                .collect()
+        };
+        let stubbed = names("kani::stub_verified(");
+        let verified = names("#[kani::proof_for_contract(");
+        assert_eq!(
+            stubbed, verified,
+            "{stem}: stubs without contracts, or unused contracts"
+        );
+        for f in &stubbed {
+            assert!(
+                text.contains(&format!("fn {f}(a: i128, b: i128)")),
+                "{stem}: stubbed function {f} is not defined"
+            );
+        }
+        for m in names("let (_, premises, goals) = model_") {
+            let prop = m.split('(').next().unwrap_or_default().to_string();
+            assert!(
+                text.contains(&format!("fn model_matches_{prop}()")),
+                "{stem}: model of {prop} has no model_matches harness"
+            );
+            modelled.push(format!("{stem}::{prop}"));
+        }
+    }
+    for p in [
+        "koren_masory_1981::gain_loop_contraction",
+        "koren_masory_1981::estimator_contraction",
+    ] {
+        assert!(
+            modelled.iter().any(|m| m == p),
+            "{p} is not modelled: {modelled:?}"
+        );
     }
 }
 

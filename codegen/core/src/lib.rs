@@ -23,6 +23,7 @@ pub mod lang;
 pub mod lower;
 pub mod prop_eval;
 pub mod qformat;
+pub mod terms;
 pub mod text;
 
 pub use diag::Diag;

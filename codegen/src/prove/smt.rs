@@ -11,7 +11,7 @@
 //! Property expressions are evaluated *exactly*: every operand is sign-extended and aligned to
 //! a common binary point, with widths grown so that nothing wraps.
 
-use crate::ir::{CmpOp, PCond, PExpr, Program, SigId, SigKind, When};
+use crate::ir::{CmpOp, PCond, PExpr, SigId, SigKind, When};
 use crate::lower::lir::{LStmt, Op, Val, ValId};
 use crate::lower::Plan;
 use crate::prop_eval::{self, Arith, ExactDomain};
@@ -65,15 +65,7 @@ pub fn in_range(t: &str, width: u32, lo: i128, hi: i128) -> String {
     )
 }
 
-/// SMT names of the free variables.
-pub fn input_var(prog: &Program, id: SigId) -> String {
-    format!("in_{}", prog.sig(id).name)
-}
-
-/// The pre-state variable of a state.
-pub fn pre_var(prog: &Program, id: SigId) -> String {
-    format!("pre_{}", prog.sig(id).name)
-}
+pub use qloop_core::terms::{input_var, pre_var};
 
 pub use crate::prop_eval::param_var;
 

@@ -3,7 +3,9 @@
 //!
 //! One at a time because parallel CBMC runs on a small machine inflate each other's times, and
 //! the table is a measurement. Each harness runs as `cargo kani --tests --package=P --exact
-//! --harness H --output-format terse -Z unstable-options --harness-timeout T`; Kani stops
+//! --harness H --output-format terse -Z unstable-options -Z function-contracts -Z stubbing
+//! --harness-timeout T` (the property harnesses `stub_verified` their product contracts);
+//! Kani stops
 //! CBMC at `T` and reports "CBMC timed out", shown here as TIMEOUT. As a backstop the whole
 //! `cargo kani` process group is killed `--grace-secs` after `T` (compiling happens once,
 //! when the harnesses are listed, so a run needs little more than its verification time).
@@ -123,6 +125,10 @@ fn list(a: &KaniArgs) -> CliResult<Vec<String>> {
         "--tests".into(),
         format!("--package={}", a.package),
         "list".into(),
+        "-Z".into(),
+        "function-contracts".into(),
+        "-Z".into(),
+        "stubbing".into(),
         "--format".into(),
         "json".into(),
     ]
@@ -158,12 +164,17 @@ fn run_one(a: &KaniArgs, harness: &str) -> CliResult<Row> {
         "terse".into(),
         "-Z".into(),
         "unstable-options".into(),
+        "-Z".into(),
+        "function-contracts".into(),
+        "-Z".into(),
+        "stubbing".into(),
         "--harness-timeout".into(),
         format!("{}s", a.timeout),
     ];
     if let Some(s) = a.solver {
         args.extend(["--solver".into(), s.into()]);
     }
+
     let backstop = Duration::from_secs(a.timeout + a.grace);
     let start = Instant::now();
     let done = process::run(a.cargo, &args, backstop)

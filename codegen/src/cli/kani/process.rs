@@ -67,6 +67,12 @@ pub fn run(program: &str, args: &[String], deadline: Duration) -> std::io::Resul
         }
         thread::sleep(Duration::from_millis(100));
     }
+    // Leftovers of the group: when Kani stops CBMC at its own time limit, an SMT solver CBMC
+    // started (the `model_matches_*` harnesses run on cvc5) keeps running otherwise.
+    let _ = Command::new("kill")
+        .args(["-KILL", "--", &format!("-{}", child.id())])
+        .stderr(Stdio::null())
+        .status();
     Ok(Done {
         stdout: out.join().unwrap_or_default(),
         stderr: err.join().unwrap_or_default(),

@@ -97,7 +97,7 @@ pub(super) fn exact_query(
     // p = s + D with a fresh D: a change of variables (exact, both ways), after which the
     // linear normal form cancels s and shares s's products with the step's own terms.
     let subst = match side {
-        Side::Property => param_state_pairs(plan, assumes, goal_conds),
+        Side::Property => qloop_core::terms::param_state_pairs(plan, assumes, goal_conds),
         _ => BTreeMap::new(),
     };
     let (params_t, mut premises) = param_terms(plan, grids, &subst, &ranges, &terms, &mut em);
@@ -211,24 +211,4 @@ pub(super) fn invariant_query(
 ) -> Option<Query> {
     let inv = &plan.prog.invariants[k];
     exact_query(plan, side, &[], &[], &|pt| pt.cond(&inv.cond), &[], how)
-}
-
-/// Free parameters that a property compares with a pre-step state (`p - s` or `s - p`).
-fn param_state_pairs(plan: &Plan, assumes: &[PCond], ensures: &[PCond]) -> BTreeMap<usize, SigId> {
-    use crate::ir::{PExpr, When};
-    let mut out = BTreeMap::new();
-    for c in assumes.iter().chain(ensures) {
-        c.walk(&mut |x| {
-            if let PExpr::Sub(a, b) = x {
-                if let (PExpr::Param(i), PExpr::Sig(s, When::Pre))
-                | (PExpr::Sig(s, When::Pre), PExpr::Param(i)) = (&**a, &**b)
-                {
-                    if plan.prog.sig(*s).kind == SigKind::State {
-                        out.entry(*i).or_insert(*s);
-                    }
-                }
-            }
-        });
-    }
-    out
 }

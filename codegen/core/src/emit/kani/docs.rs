@@ -7,7 +7,7 @@ use crate::lower::Plan;
 use crate::prop_eval::ParamGrid;
 
 /// The module's doc comment.
-pub(super) fn module_doc(plan: &Plan, skipped: &[(String, String)]) -> String {
+pub(super) fn module_doc(plan: &Plan, skipped: &[(String, String)], modelled: &[String]) -> String {
     let p = &plan.prog;
     let intro: Vec<&str> = p
         .docs
@@ -70,6 +70,26 @@ pub(super) fn module_doc(plan: &Plan, skipped: &[(String, String)]) -> String {
          assertions catch them where they reach a state, and the overflow obligations of \
          `qloop prove` cover every value.\n",
     );
+    if !modelled.is_empty() {
+        let props = list(modelled.iter().map(|n| format!("`property_{n}`")));
+        d.push_str(&format!(
+            "\nUnder Kani, {props} multiply two non-constant values, which CBMC cannot relate to \
+             the products the step computes itself. They are checked on an exact-term model of \
+             the step instead (`model_<property>`: products distributed over sums and \
+             `if`s, each distinct product computed once), with every product replaced by its \
+             contract. Each harness assumes only what another proves:\n\n\
+             * `contract_prod_<n>` (`proof_for_contract`): the product function, exact \
+               multiplication, meets its contract: McCormick planes and sign-split bounds over \
+               its factors' intervals;\n\
+             * `model_matches_<property>`: the model with exact products computes the values \
+               the property reads after the step as the generated step does, bit for bit (on \
+               CBMC's SMT back-end, cvc5);\n\
+             * `property_<property>` (`stub_verified` on its products, which checks each \
+               call's `requires`): the property holds on the model for every product value \
+               the contracts allow, the exact ones among them.\n\n\
+             Contracts and stubs need `cargo kani -Z function-contracts -Z stubbing`.\n"
+        ));
+    }
     let claimed: Vec<String> = p
         .signals
         .iter()

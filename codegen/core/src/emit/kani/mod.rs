@@ -30,14 +30,20 @@
 //! intermediate is bounded here, from the raw ranges; a harness whose bound would exceed
 //! 2^126 is not emitted, and a documented constant says why.
 //!
+//! Under Kani, a property whose conditions multiply two non-constant values is checked on
+//! an exact-term model of the step with its products replaced by verified contracts
+//! (`model`, which documents the chain of harnesses this rests on).
+//!
 //! One module per part: `sigs` (the signals, read once), `scaffold` (the shared items),
 //! one per harness kind (`overflow`, `initial`, `invariant`, `property`), `exact`
-//! (the exact `i128` evaluator), `docs` and `show` (doc text and literals).
+//! (the exact `i128` evaluator), `model` (the step models, their product contracts and
+//! `model_matches_*`), `docs` and `show` (doc text and literals).
 
 mod docs;
 mod exact;
 mod initial;
 mod invariant;
+mod model;
 mod overflow;
 mod property;
 mod scaffold;
@@ -73,7 +79,11 @@ pub fn module(plan: &Plan) -> TokenStream {
     let ranges = overflow::harness(plan, &sigs);
     let initial = initial::harness(plan, &sigs, &invs);
     let inv_harnesses = invariant::harnesses(plan, &sigs, &invs, &mut skipped);
-    let prop_harnesses = property::harnesses(plan, &sigs, &invs, &mut skipped);
+    let (mut modelled, mut prods) = (Vec::new(), model::Products::default());
+    let prop_harnesses =
+        property::harnesses(plan, &sigs, &invs, &mut skipped, &mut modelled, &mut prods);
+    let matches = model::matches_harnesses(plan, &sigs, &modelled);
+    let prods = prods.items();
     let shared = scaffold::items(&sigs, &invs);
 
     let skipped_items = skipped.iter().map(|(h, why)| {
@@ -82,7 +92,8 @@ pub fn module(plan: &Plan) -> TokenStream {
         quote! { #[doc = #d] pub const #c: &str = #why; }
     });
 
-    let doc = docs::module_doc(plan, &skipped);
+    let modelled_names: Vec<String> = modelled.iter().map(|m| m.name.clone()).collect();
+    let doc = docs::module_doc(plan, &skipped, &modelled_names);
     let allows = super::allowed_lints();
     let cases = Literal::usize_unsuffixed(CASES);
     let doc_s = show::spaced(&doc);
@@ -105,6 +116,8 @@ pub fn module(plan: &Plan) -> TokenStream {
             #initial
             #(#inv_harnesses)*
             #(#prop_harnesses)*
+            #(#matches)*
+            #prods
             #(#skipped_items)*
         }
     }

@@ -5,6 +5,7 @@
 use super::docs::{param_names, property_doc};
 use super::exact::Env;
 use super::invariant::Invariants;
+use super::model;
 use super::show::{check, conjuncts, doc_lines, int, param_ty, show_cond, spaced};
 use super::sigs::Sigs;
 use super::Skipped;
@@ -13,12 +14,28 @@ use crate::prop_eval::{param_grids, ParamGrid};
 use proc_macro2::TokenStream;
 use quote::{format_ident, quote};
 
+/// A property checked on the step model under Kani ([`model`]): what `model_matches_step`
+/// needs to call its model.
+pub(super) struct Modelled {
+    /// The property's index and name.
+    pub index: usize,
+    pub name: String,
+    /// The model function.
+    pub func: proc_macro2::Ident,
+    /// Its parameters: name and grid.
+    pub params: Vec<(String, ParamGrid)>,
+}
+
 /// The property harnesses; a property that cannot be evaluated exactly is listed in `skipped`.
+/// Properties checked on the step model under Kani are listed in `modelled`, and their
+/// models and products are part of the returned items.
 pub(super) fn harnesses(
     plan: &Plan,
     sigs: &Sigs,
     invs: &Invariants,
     skipped: &mut Skipped,
+    modelled: &mut Vec<Modelled>,
+    prods: &mut model::Products,
 ) -> Vec<TokenStream> {
     let prog = &plan.prog;
     let (in_names, step_args, pre_from_case) =
@@ -53,11 +70,65 @@ pub(super) fn harnesses(
                 let report = format!("{harness}: {{}} cases satisfied the assumptions");
                 let cover = format!("the assumptions of property `{}` are satisfiable", p.name);
                 let (assumes, ensures) = body;
+                let (kani_path, stubs) = match model::model(plan, k, &grids, prods) {
+                    Some(Ok(m)) => {
+                        doc.push_str(&model_doc(&m));
+                        let path = model_path(plan, k, &m);
+                        let stubs = m.prods.clone();
+                        prop_harnesses.push(m.items);
+                        modelled.push(Modelled {
+                            index: k,
+                            name: p.name.clone(),
+                            func: m.func,
+                            params: p
+                                .params
+                                .iter()
+                                .map(|fp| fp.name.clone())
+                                .zip(grids.clone())
+                                .collect(),
+                        });
+                        (Some(path), stubs)
+                    }
+                    Some(Err(why)) => {
+                        doc.push_str(&format!(
+                            "\n\nUnder Kani this harness runs the generated step itself: {why}."
+                        ));
+                        (None, Vec::new())
+                    }
+                    None => (None, Vec::new()),
+                };
+                let direct = quote! {
+                    // Assume: inputs in range, states in bounds, invariants hold.
+                    if !(inputs_in_range(&inputs) && in_bounds(&pre) && invariants(&pre)) {
+                        return;
+                    }
+                    let (post, outputs) = step(#step_args);
+                    #(#assumes)*
+                    #[cfg(not(kani))]
+                    held.fetch_add(1, ::core::sync::atomic::Ordering::Relaxed);
+                    #[cfg(kani)]
+                    kani::cover!(true, #cover);
+                    #(#ensures)*
+                };
+                let direct = if kani_path.is_some() {
+                    quote! { #[cfg(not(kani))] { #direct } }
+                } else {
+                    direct
+                };
+                let kani_path = kani_path.map(|path| {
+                    quote! {
+                        #[cfg(kani)]
+                        {
+                            #path
+                        }
+                    }
+                });
                 let doc_s = spaced(&doc);
                 prop_harnesses.push(quote! {
                     #[doc = #doc_s]
                     #[test]
                     #[cfg_attr(kani, kani::proof)]
+                    #(#[cfg_attr(kani, kani::stub_verified(#stubs))])*
                     fn #fname() {
                         /// Inputs inside their declared ranges, states inside their bounds,
                         /// free parameters on their grid (raw).
@@ -74,18 +145,9 @@ pub(super) fn harnesses(
                             .for_each(|c: &Case| {
                                 let inputs = inputs_raw(#(c.#in_names),*);
                                 let pre = #pre_from_case;
-                                // Assume: inputs in range, states in bounds, invariants hold.
-                                if !(inputs_in_range(&inputs) && in_bounds(&pre) && invariants(&pre)) {
-                                    return;
-                                }
                                 #(#params)*
-                                let (post, outputs) = step(#step_args);
-                                #(#assumes)*
-                                #[cfg(not(kani))]
-                                held.fetch_add(1, ::core::sync::atomic::Ordering::Relaxed);
-                                #[cfg(kani)]
-                                kani::cover!(true, #cover);
-                                #(#ensures)*
+                                #kani_path
+                                #direct
                             });
                         #[cfg(not(kani))]
                         {
@@ -144,4 +206,51 @@ fn property(
         });
     }
     Ok((assumes, ensures))
+}
+
+/// What the harness doc says of a property checked on the step model.
+fn model_doc(m: &model::Model) -> String {
+    format!(
+        "\n\nUnder Kani this property is checked on the exact-term model `{}` of the step \
+         (`model_matches_{}` proves it equal to the generated step), with its {} products \
+         replaced by their verified contracts (`stub_verified`): products distributed and \
+         shared, each bounded by the sign-split bounds of exact multiplication. Under `cargo \
+         test` it runs the generated step.",
+        m.func,
+        m.name,
+        m.prods.len()
+    )
+}
+
+/// The Kani path of a property checked on its model: the premises assumed on the model, a
+/// `cover!`, one `kani::assert` per conjunct of the `ensure`s.
+fn model_path(plan: &Plan, k: usize, m: &model::Model) -> TokenStream {
+    let p = &plan.prog.properties[k];
+    let names = param_names(p);
+    let func = &m.func;
+    let args = p.params.iter().map(|fp| format_ident!("param_{}", fp.name));
+    let cover = format!("the assumptions of property `{}` are satisfiable", p.name);
+    let asserts = p
+        .ensures
+        .iter()
+        .flat_map(conjuncts)
+        .enumerate()
+        .map(|(j, e)| {
+            let text = show_cond(plan, &names, e);
+            let literal = format!("property `{}`: `{text}` is false after the step", p.name);
+            quote! { kani::assert(goals[#j], #literal); }
+        });
+    quote! {
+        // Assume: inputs in range, states in bounds; then, on the model, the invariants and
+        // the `assume`s.
+        if !(inputs_in_range(&inputs) && in_bounds(&pre)) {
+            return;
+        }
+        let (_, premises, goals) = #func(&inputs, &pre, #(#args),*);
+        if !premises {
+            return;
+        }
+        kani::cover!(true, #cover);
+        #(#asserts)*
+    }
 }

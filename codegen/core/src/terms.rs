@@ -1,0 +1,570 @@
+//! Exact integer terms of a step and of property conditions: the algebra shared by the
+//! prover's exact-term SMT encodings and the Kani model harnesses.
+//!
+//! Where no value wraps (the overflow obligations and harnesses prove it), the machine
+//! arithmetic of the step equals exact integer arithmetic, so the step is a term over the
+//! inputs and pre-states, which admits algebra that bit-level reasoning finds hard:
+//!
+//! * multiplication distributes over `+`, `-` and `ite` (`(kc + d)·km = kc·km + d·km`), so a
+//!   post-state product shares its multipliers with the pre-state terms it came from;
+//! * products are put in a canonical operand order, so equal products are one term;
+//! * [`Ranges`] gives every term its interval from its variables' ranges.
+//!
+//! `floor` shifts (`>>`) are kept as they are: the rounding is part of what is proved.
+
+use crate::ir::{CmpOp, PCond, PExpr, Program, SigId, SigKind, When};
+use crate::lower::lir::{LStmt, Op, ValId};
+use crate::lower::Plan;
+use crate::prop_eval::{self, Arith, ExactDomain};
+use std::collections::{BTreeMap, HashMap};
+use std::rc::Rc;
+
+/// The exact-term variable of an input (`in_<name>`).
+pub fn input_var(prog: &Program, id: SigId) -> String {
+    format!("in_{}", prog.sig(id).name)
+}
+
+/// The exact-term variable of a state before the step (`pre_<name>`).
+pub fn pre_var(prog: &Program, id: SigId) -> String {
+    format!("pre_{}", prog.sig(id).name)
+}
+
+/// An exact integer term.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum T {
+    /// A declared variable: name, SMT width, signedness, and its assumed raw range.
+    Var(String, u32, bool, i128, i128),
+    /// A constant.
+    Const(i128),
+    /// Sum.
+    Add(Rc<T>, Rc<T>),
+    /// Difference.
+    Sub(Rc<T>, Rc<T>),
+    /// Negation.
+    Neg(Rc<T>),
+    /// Product.
+    Mul(Rc<T>, Rc<T>),
+    /// `a · 2^k`.
+    Shl(Rc<T>, u32),
+    /// `floor(a / 2^k)`.
+    Shr(Rc<T>, u32),
+    /// `if c { a } else { b }`.
+    Ite(Rc<B>, Rc<T>, Rc<T>),
+    /// Linear normal form `Σ cᵢ·aᵢ + c`: atoms sorted, merged, none zero.
+    Sum(Vec<(i128, Rc<T>)>, i128),
+}
+
+/// A linear combination of atoms, as a map, and a constant.
+type Lin = (BTreeMap<Rc<T>, i128>, i128);
+
+/// The linear normal form of `t`.
+fn lin(t: &Rc<T>) -> Lin {
+    let mut m: BTreeMap<Rc<T>, i128> = BTreeMap::new();
+    match &**t {
+        T::Const(c) => return (m, *c),
+        T::Sum(terms, c) => {
+            for (k, a) in terms {
+                *m.entry(a.clone()).or_insert(0) += k;
+            }
+            return (m, *c);
+        }
+        T::Add(a, b) | T::Sub(a, b) => {
+            let (ma, ca) = lin(a);
+            let (mb, cb) = lin(b);
+            let sign = if matches!(**t, T::Sub(..)) { -1 } else { 1 };
+            m = ma;
+            for (k, v) in mb {
+                *m.entry(k).or_insert(0) += sign * v;
+            }
+            return (m, ca + sign * cb);
+        }
+        T::Neg(a) => {
+            let (ma, ca) = lin(a);
+            return (ma.into_iter().map(|(k, v)| (k, -v)).collect(), -ca);
+        }
+        T::Shl(a, k) => {
+            let (ma, ca) = lin(a);
+            return (ma.into_iter().map(|(x, v)| (x, v << k)).collect(), ca << k);
+        }
+        _ => {}
+    }
+    m.insert(t.clone(), 1);
+    (m, 0)
+}
+
+/// The term of a linear combination.
+fn from_lin((m, c): Lin) -> Rc<T> {
+    let terms: Vec<(i128, Rc<T>)> = m
+        .into_iter()
+        .filter(|(_, k)| *k != 0)
+        .map(|(a, k)| (k, a))
+        .collect();
+    match terms.as_slice() {
+        [] => Rc::new(T::Const(c)),
+        [(1, a)] if c == 0 => a.clone(),
+        _ => Rc::new(T::Sum(terms, c)),
+    }
+}
+
+/// An exact boolean term.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum B {
+    /// Comparison.
+    Cmp(CmpOp, Rc<T>, Rc<T>),
+    /// Conjunction.
+    And(Rc<B>, Rc<B>),
+    /// Disjunction.
+    Or(Rc<B>, Rc<B>),
+    /// Negation.
+    Not(Rc<B>),
+}
+
+/// `a + b` in linear normal form.
+pub fn add(a: Rc<T>, b: Rc<T>) -> Rc<T> {
+    let (mut m, c) = lin(&a);
+    let (mb, cb) = lin(&b);
+    for (k, v) in mb {
+        *m.entry(k).or_insert(0) += v;
+    }
+    from_lin((m, c + cb))
+}
+
+/// `a - b` in linear normal form.
+pub fn sub(a: Rc<T>, b: Rc<T>) -> Rc<T> {
+    add(a, neg(b))
+}
+
+/// `-a` in linear normal form.
+pub fn neg(a: Rc<T>) -> Rc<T> {
+    let (m, c) = lin(&a);
+    from_lin((m.into_iter().map(|(k, v)| (k, -v)).collect(), -c))
+}
+
+/// `a · 2^k` in linear normal form.
+pub fn shl(a: Rc<T>, k: u32) -> Rc<T> {
+    if k == 0 {
+        return a;
+    }
+    let (m, c) = lin(&a);
+    from_lin((m.into_iter().map(|(x, v)| (x, v << k)).collect(), c << k))
+}
+
+/// Product, distributed over `+`, `-`, negation and `ite`, with canonical operand order.
+pub fn mul(a: Rc<T>, b: Rc<T>) -> Rc<T> {
+    if let T::Ite(c, x, y) = &*a {
+        return ite(c.clone(), mul(x.clone(), b.clone()), mul(y.clone(), b));
+    }
+    if let T::Ite(c, x, y) = &*b {
+        return ite(c.clone(), mul(a.clone(), x.clone()), mul(a, y.clone()));
+    }
+    let ((ma, ca), (mb, cb)) = (lin(&a), lin(&b));
+    let mut m: BTreeMap<Rc<T>, i128> = BTreeMap::new();
+    for (x, kx) in &ma {
+        for (y, ky) in &mb {
+            *m.entry(product(x.clone(), y.clone())).or_insert(0) += kx * ky;
+        }
+        if cb != 0 {
+            *m.entry(x.clone()).or_insert(0) += kx * cb;
+        }
+    }
+    if ca != 0 {
+        for (y, ky) in &mb {
+            *m.entry(y.clone()).or_insert(0) += ca * ky;
+        }
+    }
+    from_lin((m, ca * cb))
+}
+
+/// `a + b` in linear normal form.
+pub fn add_terms(a: Rc<T>, b: Rc<T>) -> Rc<T> {
+    add(a, b)
+}
+
+/// `a · 2^k` in linear normal form.
+pub fn shl_term(a: Rc<T>, k: u32) -> Rc<T> {
+    shl(a, k)
+}
+
+/// The variables a term mentions.
+pub fn vars_of(t: &Rc<T>) -> Vec<Rc<T>> {
+    fn go(t: &Rc<T>, out: &mut Vec<Rc<T>>) {
+        match &**t {
+            T::Var(..) => {
+                if !out.contains(t) {
+                    out.push(t.clone());
+                }
+            }
+            T::Const(_) => {}
+            T::Add(a, b) | T::Sub(a, b) | T::Mul(a, b) => {
+                go(a, out);
+                go(b, out);
+            }
+            T::Neg(a) | T::Shl(a, _) | T::Shr(a, _) => go(a, out),
+            T::Ite(_, a, b) => {
+                go(a, out);
+                go(b, out);
+            }
+            T::Sum(terms, _) => {
+                for (_, a) in terms {
+                    go(a, out);
+                }
+            }
+        }
+    }
+    let mut out = Vec::new();
+    go(t, &mut out);
+    out
+}
+
+/// Whether `t` mentions a variable named in `names`.
+pub fn mentions(t: &Rc<T>, names: &[String]) -> bool {
+    vars_of(t)
+        .iter()
+        .any(|v| matches!(&**v, T::Var(n, ..) if names.contains(n)))
+}
+
+/// Product without distribution, in canonical operand order.
+pub fn product(a: Rc<T>, b: Rc<T>) -> Rc<T> {
+    match (&*a, &*b) {
+        (T::Const(x), T::Const(y)) => Rc::new(T::Const(x * y)),
+        _ if a <= b => Rc::new(T::Mul(a, b)),
+        _ => Rc::new(T::Mul(b, a)),
+    }
+}
+
+/// `if c { a } else { b }`, collapsed when both arms are equal.
+pub fn ite(c: Rc<B>, a: Rc<T>, b: Rc<T>) -> Rc<T> {
+    if a == b {
+        a
+    } else {
+        Rc::new(T::Ite(c, a, b))
+    }
+}
+
+/// Exact terms of a plan: every value, and every state/output after the step.
+pub struct Terms {
+    /// Term of each value (booleans have none).
+    pub vals: Vec<Option<Rc<T>>>,
+    /// Boolean term of each boolean value.
+    pub bools: Vec<Option<Rc<B>>>,
+    /// Post-step term of each state and output.
+    pub post: BTreeMap<SigId, Rc<T>>,
+    /// Pre-step variable of each input and state.
+    pub pre: BTreeMap<SigId, Rc<T>>,
+}
+
+/// Builds exact terms for the step. Inputs and states are variables ranging over
+/// `ranges[id]` (raw).
+pub fn terms(plan: &Plan, ranges: &dyn Fn(SigId) -> (i128, i128)) -> Terms {
+    let prog = &plan.prog;
+    let mut pre = BTreeMap::new();
+    let mut env: BTreeMap<SigId, Rc<T>> = BTreeMap::new();
+    for (i, s) in prog.signals.iter().enumerate() {
+        let id = SigId(i);
+        let q = plan.format(id);
+        let (lo, hi) = ranges(id);
+        match s.kind {
+            SigKind::Input => {
+                pre.insert(
+                    id,
+                    Rc::new(T::Var(input_var(prog, id), q.ty.bits, q.ty.signed, lo, hi)),
+                );
+            }
+            SigKind::State => {
+                let v = Rc::new(T::Var(pre_var(prog, id), q.ty.bits, q.ty.signed, lo, hi));
+                pre.insert(id, v.clone());
+                env.insert(id, v);
+            }
+            SigKind::Output => {
+                env.insert(id, Rc::new(T::Const(0)));
+            }
+            SigKind::Local => {}
+        }
+    }
+    let mut t = Terms {
+        vals: vec![None; plan.vals.len()],
+        bools: vec![None; plan.vals.len()],
+        post: BTreeMap::new(),
+        pre,
+    };
+    walk(plan, &plan.body, &mut env, &mut t);
+    t.post = env;
+    t
+}
+
+fn walk(plan: &Plan, stmts: &[LStmt], env: &mut BTreeMap<SigId, Rc<T>>, t: &mut Terms) {
+    for s in stmts {
+        match s {
+            LStmt::Def(id) => def(plan, *id, env, t),
+            LStmt::Store(sig, id) => {
+                if let Some(v) = &t.vals[id.0] {
+                    env.insert(*sig, v.clone());
+                }
+            }
+            LStmt::If(c, a, b) => {
+                let mut ea = env.clone();
+                walk(plan, a, &mut ea, t);
+                let mut eb = env.clone();
+                walk(plan, b, &mut eb, t);
+                let cond = t.bools[c.0]
+                    .clone()
+                    .unwrap_or_else(|| Rc::new(B::Not(Rc::new(B::Cmp(CmpOp::Eq, zero(), zero())))));
+                for (sig, ta) in ea {
+                    let tb = eb.get(&sig).cloned().unwrap_or_else(|| ta.clone());
+                    env.insert(sig, ite(cond.clone(), ta, tb));
+                }
+            }
+        }
+    }
+}
+
+fn zero() -> Rc<T> {
+    Rc::new(T::Const(0))
+}
+
+fn def(plan: &Plan, id: ValId, env: &BTreeMap<SigId, Rc<T>>, t: &mut Terms) {
+    let v = plan.val(id);
+    let g = |x: &ValId| t.vals[x.0].clone().unwrap_or_else(zero);
+    let gb = |x: &ValId| {
+        t.bools[x.0]
+            .clone()
+            .unwrap_or_else(|| Rc::new(B::Cmp(CmpOp::Eq, zero(), zero())))
+    };
+    if v.boolean {
+        let b = match &v.op {
+            Op::Cmp(op, a, b) => B::Cmp(*op, g(a), g(b)),
+            Op::And(a, b) => B::And(gb(a), gb(b)),
+            Op::Or(a, b) => B::Or(gb(a), gb(b)),
+            Op::Not(a) => B::Not(gb(a)),
+            _ => B::Cmp(CmpOp::Eq, zero(), zero()),
+        };
+        t.bools[id.0] = Some(Rc::new(b));
+        return;
+    }
+    let e = match &v.op {
+        Op::Input(s) => t.pre[s].clone(),
+        Op::Load(s) => env[s].clone(),
+        Op::Const(c) => Rc::new(T::Const(*c)),
+        Op::Cast(a) => g(a),
+        Op::Add(a, b) => add(g(a), g(b)),
+        Op::Sub(a, b) => sub(g(a), g(b)),
+        Op::Neg(a) => neg(g(a)),
+        Op::Shl(a, k) => shl(g(a), *k),
+        Op::Shr(a, k) => Rc::new(T::Shr(g(a), *k)),
+        // The program's own products stay single terms (canonical order only): distributing
+        // them hides simple arguments such as a product's sign.
+        Op::Mul(a, b) => product(g(a), g(b)),
+        Op::Min(a, b) => ite(Rc::new(B::Cmp(CmpOp::Lt, g(a), g(b))), g(a), g(b)),
+        Op::Max(a, b) => ite(Rc::new(B::Cmp(CmpOp::Lt, g(a), g(b))), g(b), g(a)),
+        Op::Select(c, a, b) => ite(gb(c), g(a), g(b)),
+        Op::Cmp(..) | Op::And(..) | Op::Or(..) | Op::Not(..) => zero(),
+    };
+    t.vals[id.0] = Some(e);
+}
+
+/// A property value: exact term at a binary point.
+#[derive(Clone)]
+pub struct Fx {
+    t: Rc<T>,
+    frac: i32,
+}
+
+fn align(a: Fx, f: i32) -> Rc<T> {
+    shl(a.t, (f - a.frac).max(0) as u32)
+}
+
+/// Property expressions over exact terms.
+pub struct PropTerms<'a> {
+    /// The plan.
+    pub plan: &'a Plan,
+    /// Step terms.
+    pub terms: &'a Terms,
+    /// Free parameters: variable terms and binary points.
+    pub params: Vec<(Rc<T>, i32)>,
+    /// Read states' pre values from the post-step terms (invariants after a step).
+    pub pre_as_post: bool,
+}
+
+impl PropTerms<'_> {
+    /// The boolean term of a property condition.
+    pub fn cond(&self, c: &PCond) -> Option<Rc<B>> {
+        prop_eval::cond(&mut &*self, c).ok()
+    }
+}
+
+/// Exact terms ([`T`], [`B`]), later written as SMT-LIB by `qloop`'s `prove::exact::Emitter` or as
+/// Rust by the Kani step models.
+impl ExactDomain for &PropTerms<'_> {
+    type Value = Fx;
+    type Bool = Rc<B>;
+    type Error = ();
+
+    fn frac(v: &Fx) -> i32 {
+        v.frac
+    }
+
+    fn inexact(&self, _: f64) {}
+
+    fn constant(&mut self, m: i128, frac: i32) -> Result<Fx, ()> {
+        Ok(Fx {
+            t: Rc::new(T::Const(m)),
+            frac,
+        })
+    }
+
+    fn signal(&mut self, id: SigId, when: When) -> Result<Fx, ()> {
+        let q = self.plan.format(id);
+        let kind = self.plan.prog.sig(id).kind;
+        let t = match (kind, when) {
+            (SigKind::Input, _) => self.terms.pre[&id].clone(),
+            (SigKind::State, When::Pre) if !self.pre_as_post => self.terms.pre[&id].clone(),
+            _ => self.terms.post[&id].clone(),
+        };
+        Ok(Fx { t, frac: q.frac })
+    }
+
+    fn param(&mut self, i: usize) -> Result<Fx, ()> {
+        let (t, f) = self.params.get(i).ok_or(())?;
+        Ok(Fx {
+            t: t.clone(),
+            frac: *f,
+        })
+    }
+
+    fn neg(&mut self, a: Fx) -> Result<Fx, ()> {
+        Ok(Fx {
+            t: neg(a.t),
+            frac: a.frac,
+        })
+    }
+
+    fn abs(&mut self, a: Fx) -> Result<Fx, ()> {
+        let c = Rc::new(B::Cmp(CmpOp::Lt, a.t.clone(), zero()));
+        Ok(Fx {
+            t: ite(c, neg(a.t.clone()), a.t),
+            frac: a.frac,
+        })
+    }
+
+    fn arith(&mut self, op: Arith, a: Fx, b: Fx, f: i32) -> Result<Fx, ()> {
+        let (x, y) = (align(a, f), align(b, f));
+        let t = match op {
+            Arith::Add => add(x, y),
+            Arith::Sub => sub(x, y),
+            Arith::Min => ite(Rc::new(B::Cmp(CmpOp::Lt, x.clone(), y.clone())), x, y),
+            Arith::Max => ite(Rc::new(B::Cmp(CmpOp::Lt, x.clone(), y.clone())), y, x),
+        };
+        Ok(Fx { t, frac: f })
+    }
+
+    fn mul(&mut self, a: Fx, b: Fx) -> Result<Fx, ()> {
+        Ok(Fx {
+            t: mul(a.t, b.t),
+            frac: a.frac + b.frac,
+        })
+    }
+
+    fn cmp(&mut self, op: CmpOp, a: Fx, b: Fx, f: i32) -> Result<Rc<B>, ()> {
+        Ok(Rc::new(B::Cmp(op, align(a, f), align(b, f))))
+    }
+
+    fn and(&mut self, a: Rc<B>, b: Rc<B>) -> Result<Rc<B>, ()> {
+        Ok(Rc::new(B::And(a, b)))
+    }
+
+    fn or(&mut self, a: Rc<B>, b: Rc<B>) -> Result<Rc<B>, ()> {
+        Ok(Rc::new(B::Or(a, b)))
+    }
+
+    fn not(&mut self, a: Rc<B>) -> Result<Rc<B>, ()> {
+        Ok(Rc::new(B::Not(a)))
+    }
+}
+
+/// Interval arithmetic over terms, memoised: the raw interval of every term from its
+/// variables' assumed ranges. Sound for exact integers: every value a term takes, for
+/// variables inside their ranges, lies in its interval.
+#[derive(Default)]
+pub struct Ranges {
+    memo: HashMap<Rc<T>, (i128, i128)>,
+}
+
+impl Ranges {
+    /// The raw interval of a term.
+    pub fn of(&mut self, t: &Rc<T>) -> (i128, i128) {
+        if let Some(r) = self.memo.get(t) {
+            return *r;
+        }
+        let r = match &**t {
+            T::Var(_, _, _, lo, hi) => (*lo, *hi),
+            T::Const(c) => (*c, *c),
+            T::Add(a, b) => {
+                let (x, y) = (self.of(a), self.of(b));
+                (x.0 + y.0, x.1 + y.1)
+            }
+            T::Sub(a, b) => {
+                let (x, y) = (self.of(a), self.of(b));
+                (x.0 - y.1, x.1 - y.0)
+            }
+            T::Neg(a) => {
+                let x = self.of(a);
+                (-x.1, -x.0)
+            }
+            T::Mul(a, b) => {
+                let (x, y) = (self.of(a), self.of(b));
+                let c = [x.0 * y.0, x.0 * y.1, x.1 * y.0, x.1 * y.1];
+                (*c.iter().min().unwrap_or(&0), *c.iter().max().unwrap_or(&0))
+            }
+            T::Shl(a, k) => {
+                let x = self.of(a);
+                (x.0 << k, x.1 << k)
+            }
+            T::Shr(a, k) => {
+                let x = self.of(a);
+                (x.0 >> k, x.1 >> k)
+            }
+            T::Ite(_, a, b) => {
+                let (x, y) = (self.of(a), self.of(b));
+                (x.0.min(y.0), x.1.max(y.1))
+            }
+            T::Sum(terms, c) => {
+                let (mut lo, mut hi) = (*c, *c);
+                for (k, a) in terms {
+                    let (x, y) = self.of(a);
+                    let (p, q) = (k * x, k * y);
+                    lo += p.min(q);
+                    hi += p.max(q);
+                }
+                (lo, hi)
+            }
+        };
+        self.memo.insert(t.clone(), r);
+        r
+    }
+}
+
+/// Free parameters that a property compares with a pre-step state (`p - s` or `s - p`):
+/// parameter index → state. Both encoders rewrite such a parameter as `p = s·2^shift + D`
+/// with a fresh `D` (exact, both ways), after which the linear normal form cancels `s` and
+/// shares `s`'s products with the step's own terms.
+pub fn param_state_pairs(
+    plan: &Plan,
+    assumes: &[PCond],
+    ensures: &[PCond],
+) -> BTreeMap<usize, SigId> {
+    let mut out = BTreeMap::new();
+    for c in assumes.iter().chain(ensures) {
+        c.walk(&mut |x| {
+            if let PExpr::Sub(a, b) = x {
+                if let (PExpr::Param(i), PExpr::Sig(s, When::Pre))
+                | (PExpr::Sig(s, When::Pre), PExpr::Param(i)) = (&**a, &**b)
+                {
+                    if plan.prog.sig(*s).kind == SigKind::State {
+                        out.entry(*i).or_insert(*s);
+                    }
+                }
+            }
+        });
+    }
+    out
+}
