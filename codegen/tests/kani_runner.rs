@@ -11,9 +11,9 @@ const FAKE: &str = r#"#!/bin/sh
 [ "$1" = kani ] || exit 101
 case "$*" in
   *--version*) echo "Kani Rust Verifier 0.67.0 (cargo plugin)"; exit 0 ;;
-  *"--harness m::model_matches_p "*"-Z function-contracts -Z stubbing "*) printf 'VERIFICATION:- SUCCESSFUL\nVerification Time: 0.5s\n'; exit 0 ;;
-  *"--harness m::model_matches_p "*) printf 'VERIFICATION:- FAILED\n'; exit 1 ;;
-  *" list "*) printf '%s' '{"kani-version":"0.67.0","standard-harnesses":{"src/lib.rs":["m::ok","m::bad","m::slow","m::hang"]},"contract-harnesses":{"src/lib.rs":["m::model_matches_p"]}}' > kani-list.json; exit 0 ;;
+  *"--harness m::stubbed "*"-Z function-contracts -Z stubbing "*) printf 'VERIFICATION:- SUCCESSFUL\nVerification Time: 0.5s\n'; exit 0 ;;
+  *"--harness m::stubbed "*) printf 'VERIFICATION:- FAILED\n'; exit 1 ;;
+  *" list "*) printf '%s' '{"kani-version":"0.67.0","standard-harnesses":{"src/lib.rs":["m::ok","m::bad","m::slow","m::hang"]},"contract-harnesses":{"src/lib.rs":["m::stubbed"]}}' > kani-list.json; exit 0 ;;
   *"--harness m::ok "*) printf 'VERIFICATION RESULT:\n ** 0 of 90 failed\n\nVERIFICATION:- SUCCESSFUL\nVerification Time: 0.12s\n'; exit 0 ;;
   *"--harness m::bad "*) printf 'VERIFICATION RESULT:\n ** 1 of 459 failed (2 unreachable)\n\nFailed Checks: property `p`: `x <= 1` is false after the step\n File: "src/lib.rs", line 3\n\nVERIFICATION:- FAILED\nVerification Time: 6.5s\n'; exit 1 ;;
   *"--harness m::slow "*) printf 'CBMC failed\nVERIFICATION:- FAILED\nCBMC timed out. You may want to rerun your proof with a larger timeout.\n'; exit 1 ;;
@@ -48,7 +48,7 @@ fn qloop(dir: &Path, args: &[&str]) -> Output {
 #[test]
 fn harnesses_run_with_contracts_and_stubbing_enabled() {
     let dir = fake_dir("contracts");
-    let o = qloop(&dir, &["--only", "m::model_matches_p"]);
+    let o = qloop(&dir, &["--only", "m::stubbed"]);
     let out = String::from_utf8_lossy(&o.stdout);
     assert_eq!(o.status.code(), Some(0), "{out}");
     assert!(out.contains("1 harnesses: 1 successful"), "{out}");

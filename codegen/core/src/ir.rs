@@ -375,6 +375,20 @@ impl PCond {
             PCond::Not(a) => a.walk(f),
         }
     }
+
+    /// Adds the signals the condition reads after the step (`next(s)`, outputs) to `out`, and
+    /// the pre-step states as well if `pre_as_post` (an invariant read after a step).
+    pub fn post_signals(&self, out: &mut std::collections::BTreeSet<SigId>, pre_as_post: bool) {
+        self.walk(&mut |x| match x {
+            PExpr::Sig(id, When::Post) => {
+                out.insert(*id);
+            }
+            PExpr::Sig(id, When::Pre) if pre_as_post => {
+                out.insert(*id);
+            }
+            _ => {}
+        });
+    }
 }
 
 /// A condition in a property.

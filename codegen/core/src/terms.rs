@@ -175,16 +175,6 @@ pub fn mul(a: Rc<T>, b: Rc<T>) -> Rc<T> {
     from_lin((m, ca * cb))
 }
 
-/// `a + b` in linear normal form.
-pub fn add_terms(a: Rc<T>, b: Rc<T>) -> Rc<T> {
-    add(a, b)
-}
-
-/// `a · 2^k` in linear normal form.
-pub fn shl_term(a: Rc<T>, k: u32) -> Rc<T> {
-    shl(a, k)
-}
-
 /// The variables a term mentions.
 pub fn vars_of(t: &Rc<T>) -> Vec<Rc<T>> {
     fn go(t: &Rc<T>, out: &mut Vec<Rc<T>>) {
@@ -541,6 +531,19 @@ impl Ranges {
         self.memo.insert(t.clone(), r);
         r
     }
+}
+
+/// How a free parameter on grid `g` compared with state `s` is rewritten as
+/// `p = s·2^shift + D`: the shift and `D`'s raw range for `s` in `[slo, shi]`, or `None` when the
+/// parameter's grid is coarser than the state's format (it stays a variable of its own).
+pub fn param_shift(
+    plan: &Plan,
+    g: &crate::prop_eval::ParamGrid,
+    s: SigId,
+    (slo, shi): (i128, i128),
+) -> Option<(u32, i128, i128)> {
+    let shift = u32::try_from(g.frac - plan.format(s).frac).ok()?;
+    Some((shift, g.lo - (shi << shift), g.hi - (slo << shift)))
 }
 
 /// Free parameters that a property compares with a pre-step state (`p - s` or `s - p`):

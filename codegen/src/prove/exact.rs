@@ -8,10 +8,8 @@
 //! wider than it must be, and products may be over-approximated ([`Products`]).
 
 use crate::ir::CmpOp;
-pub use qloop_core::terms::{
-    add_terms, mul, product, shl_term, terms, vars_of, PropTerms, Terms, B, T,
-};
 use qloop_core::terms::{mentions, Ranges};
+pub use qloop_core::terms::{mul, product, terms, vars_of, PropTerms, Terms, B, T};
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write;
 use std::rc::Rc;

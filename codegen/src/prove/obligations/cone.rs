@@ -1,7 +1,7 @@
 //! Cone of influence: which values a goal depends on, so that a whole-program query carries
 //! lemmas only for those.
 
-use crate::ir::{PCond, SigId};
+use crate::ir::SigId;
 use crate::lower::lir::{LStmt, Op, ValId};
 use crate::lower::Plan;
 use std::collections::{BTreeMap, BTreeSet};
@@ -69,18 +69,4 @@ impl Cone {
         walk(plan, &plan.body, &mut post, &mut val);
         Cone { val, post }
     }
-}
-
-/// Post-step signals a property condition reads (and pre-step states, if `pre_as_post`).
-pub(super) fn post_signals(c: &PCond, out: &mut BTreeSet<SigId>, pre_as_post: bool) {
-    use crate::ir::{PExpr, When};
-    c.walk(&mut |x| match x {
-        PExpr::Sig(id, When::Post) => {
-            out.insert(*id);
-        }
-        PExpr::Sig(id, When::Pre) if pre_as_post => {
-            out.insert(*id);
-        }
-        _ => {}
-    });
 }

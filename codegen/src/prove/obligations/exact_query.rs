@@ -9,6 +9,7 @@ use crate::lower::Plan;
 use crate::prove::exact::{self, PropTerms, B, T};
 use crate::prove::smt::signed_bits;
 use crate::prove::solver::Query;
+use qloop_core::terms::{add, param_shift, param_state_pairs, shl};
 use std::collections::BTreeMap;
 use std::fmt::Write;
 use std::rc::Rc;
@@ -97,7 +98,7 @@ pub(super) fn exact_query(
     // p = s + D with a fresh D: a change of variables (exact, both ways), after which the
     // linear normal form cancels s and shares s's products with the step's own terms.
     let subst = match side {
-        Side::Property => qloop_core::terms::param_state_pairs(plan, assumes, goal_conds),
+        Side::Property => param_state_pairs(plan, assumes, goal_conds),
         _ => BTreeMap::new(),
     };
     let (params_t, mut premises) = param_terms(plan, grids, &subst, &ranges, &terms, &mut em);
@@ -157,12 +158,11 @@ fn param_terms(
     let mut params_t: Vec<(Rc<T>, i32)> = Vec::new();
     for (i, g) in grids.iter().enumerate() {
         let pv = Rc::new(T::Var(g.var.clone(), g.width, true, g.lo, g.hi));
-        let state = subst.get(&i).copied();
-        let shift = state.map_or(-1, |s| g.frac - plan.format(s).frac);
-        match state {
-            Some(s) if shift >= 0 => {
-                let (slo, shi) = ranges(s);
-                let (dlo, dhi) = (g.lo - (shi << shift), g.hi - (slo << shift));
+        let shifted = subst
+            .get(&i)
+            .and_then(|&s| Some((s, param_shift(plan, g, s, ranges(s))?)));
+        match shifted {
+            Some((s, (shift, dlo, dhi))) => {
                 let d = Rc::new(T::Var(
                     format!("d_{}", g.var),
                     signed_bits(dlo, dhi),
@@ -170,7 +170,7 @@ fn param_terms(
                     dlo,
                     dhi,
                 ));
-                let t = exact::add_terms(exact::shl_term(terms.pre[&s].clone(), shift as u32), d);
+                let t = add(shl(terms.pre[&s].clone(), shift), d);
                 // Keep p in the model (for replay): p = s·2^shift + D, inside p's grid range.
                 premises.push(em.equal(&pv, &t));
                 params_t.push((t, g.frac));

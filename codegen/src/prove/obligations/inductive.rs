@@ -2,7 +2,6 @@
 //! input bits, lands inside them again. With the initial obligations this proves the ranges
 //! and invariants for every reachable state, for unbounded time.
 
-use super::cone::post_signals;
 use super::exact_query::{invariant_query, Side, EXACT_BV, INTEGER, LINEAR};
 use super::step::{state_bound, Step};
 use super::{Goal, Kind, Obligation};
@@ -56,7 +55,7 @@ pub(super) fn invariant(step: &Step, k: usize) -> Vec<Obligation> {
     };
     if let Some(goal) = post_env.cond(&inv.cond) {
         let mut sigs = BTreeSet::new();
-        post_signals(&inv.cond, &mut sigs, true);
+        inv.cond.post_signals(&mut sigs, true);
         let needed = step.cone.post_of(&sigs);
         out.push(Obligation {
             name,

@@ -6,7 +6,6 @@
 //! counts). A separate witness query per property checks that its premises can be met at
 //! all, since a property with unsatisfiable premises holds vacuously.
 
-use super::cone::post_signals;
 use super::exact_query::{exact_query, Side, ABSTRACT_BV, EXACT_BV, INTEGER, LINEAR};
 use super::step::Step;
 use super::{param_grids, ExactEncoding, Goal, Kind, Obligation};
@@ -99,7 +98,7 @@ fn direct_query(step: &Step, k: usize, witness: bool) -> Option<Query> {
     }
     let mut sigs = BTreeSet::new();
     for c in p.assumes.iter().chain(&p.ensures) {
-        post_signals(c, &mut sigs, false);
+        c.post_signals(&mut sigs, false);
     }
     let needed = step.cone.post_of(&sigs);
     let mut want = step.want.clone();

@@ -77,7 +77,8 @@ pub(super) fn module_doc(plan: &Plan, skipped: &[(String, String)], modelled: &[
              the products the step computes itself. They are checked on an exact-term model of \
              the step instead (`model_<property>`: products distributed over sums and \
              `if`s, each distinct product computed once), with every product replaced by its \
-             contract. Each harness assumes only what another proves:\n\n\
+             contract. Each harness assumes only what another harness checks (a proof once all of \
+             them verify):\n\n\
              * `contract_prod_<n>` (`proof_for_contract`): the product function, exact \
                multiplication, meets its contract: McCormick planes and sign-split bounds over \
                its factors' intervals;\n\

@@ -92,7 +92,10 @@ pub fn module(plan: &Plan) -> TokenStream {
         quote! { #[doc = #d] pub const #c: &str = #why; }
     });
 
-    let modelled_names: Vec<String> = modelled.iter().map(|m| m.name.clone()).collect();
+    let modelled_names: Vec<String> = modelled
+        .iter()
+        .map(|m| prog.properties[m.index].name.clone())
+        .collect();
     let doc = docs::module_doc(plan, &skipped, &modelled_names);
     let allows = super::allowed_lints();
     let cases = Literal::usize_unsuffixed(CASES);

@@ -1,5 +1,5 @@
 //! The exact-term model of one step, for the property harnesses whose conditions multiply
-//! two non-constant values (the gain-loop and estimator contractions): under Kani,
+//! two non-constant values (such as the gain-loop and estimator contractions): under Kani,
 //! such a property is checked on a model of the step instead of the step itself, with every
 //! product replaced by its verified contract.
 //!
@@ -27,12 +27,12 @@
 //! * `property_*` (`stub_verified` on the products): the property holds on the model for
 //!   every product value its contract allows, the exact ones among them.
 
-use super::show::{i128_lit, spaced};
+use super::show::{i128_lit, param_fields, param_lets, spaced};
 use super::LIMIT_BITS;
 use crate::ir::{CmpOp, SigId, SigKind};
 use crate::lower::Plan;
 use crate::prop_eval::ParamGrid;
-use crate::terms::{self, param_state_pairs, PropTerms, Ranges, Terms, B, T};
+use crate::terms::{self, param_shift, param_state_pairs, PropTerms, Ranges, Terms, B, T};
 use proc_macro2::{Ident, TokenStream};
 use quote::{format_ident, quote};
 use std::collections::HashMap;
@@ -43,8 +43,6 @@ use std::rc::Rc;
 pub(super) struct Model {
     /// The model function.
     pub items: TokenStream,
-    /// The property's name.
-    pub name: String,
     /// The model function's name.
     pub func: Ident,
     /// The product functions it calls, to be `stub_verified` in the property harness.
@@ -86,25 +84,25 @@ pub(super) fn model(
     let mut d_defs = Vec::new();
     for (i, g) in grids.iter().enumerate() {
         let pv = format_ident!("param_{}", p.params[i].name);
-        let var = Rc::new(T::Var(g.var.clone(), g.width, true, g.lo, g.hi));
         pr.vars.insert(g.var.clone(), quote! { #pv });
-        let state = subst.get(&i).copied();
-        let shift = state.map_or(-1, |s| g.frac - plan.format(s).frac);
-        match state {
-            Some(s) if shift >= 0 => {
-                let (slo, shi) = plan.bounds(s);
-                let (dlo, dhi) = (g.lo - (shi << shift), g.hi - (slo << shift));
+        let shifted = subst
+            .get(&i)
+            .and_then(|&s| Some((s, param_shift(plan, g, s, plan.bounds(s))?)));
+        match shifted {
+            Some((s, (shift, dlo, dhi))) => {
                 let dname = format!("d_{}", g.var);
                 let d = Rc::new(T::Var(dname.clone(), 0, true, dlo, dhi));
                 let dv = format_ident!("d_{}", p.params[i].name);
                 let sn = format_ident!("{}", prog.sig(s).name);
-                let sh = shift as u32;
-                d_defs.push(quote! { let #dv: i128 = #pv - (pre.#sn << #sh); });
+                d_defs.push(quote! { let #dv: i128 = #pv - (pre.#sn << #shift); });
                 pr.vars.insert(dname, quote! { #dv });
-                let t = terms::add(terms::shl(terms.pre[&s].clone(), sh), d);
+                let t = terms::add(terms::shl(terms.pre[&s].clone(), shift), d);
                 params_t.push((t, g.frac));
             }
-            _ => params_t.push((var, g.frac)),
+            None => {
+                let var = Rc::new(T::Var(g.var.clone(), g.width, true, g.lo, g.hi));
+                params_t.push((var, g.frac));
+            }
         }
     }
     for (id, t) in &terms.pre {
@@ -219,7 +217,6 @@ fn emit(
     };
     Ok(Model {
         items,
-        name: p.name.clone(),
         func,
         prods: pr.used,
     })
@@ -511,15 +508,10 @@ fn matches_harness(
     let (in_names, step_args, pre_from_case) =
         (&sigs.in_names, sigs.step_args(), sigs.pre_from_case());
     let (input_fields_ranged, state_fields) = (sigs.input_fields_ranged(), sigs.state_fields());
-    let mut param_fields = Vec::new();
-    let mut args = Vec::new();
-    for (name, g) in &m.params {
-        let f = format_ident!("{name}");
-        let t = super::show::param_ty(g);
-        let (lo, hi) = (super::show::int(g.lo), super::show::int(g.hi));
-        param_fields.push(quote! { #[generator(#lo..=#hi)] #f: #t, });
-        args.push(quote! { i128::from(c.#f) });
-    }
+    let p = &prog.properties[m.index];
+    let grids = crate::prop_eval::param_grids(plan, m.index);
+    let (param_fields, params) = (param_fields(p, &grids), param_lets(p));
+    let args = p.params.iter().map(|fp| format_ident!("param_{}", fp.name));
     let func = &m.func;
     let mut eqs = Vec::new();
     let read = read_after(plan, m.index);
@@ -543,7 +535,7 @@ fn matches_harness(
             #check
         });
     }
-    let fname = format_ident!("model_matches_{}", m.name);
+    let fname = format_ident!("model_matches_{}", p.name);
     let shown = read
         .iter()
         .map(|id| format!("`{}`", prog.sig(*id).name))
@@ -558,7 +550,7 @@ fn matches_harness(
          CBMC's SMT back-end (`kani::solver(cvc5)`): the model and the step multiply the same \
          operands, which a SAT solver cannot match up bit by bit and an SMT solver's \
          word-level rewriting can.",
-        m.name, prog.name, m.name
+        p.name, prog.name, p.name
     ));
     quote! {
         #[doc = #doc]
@@ -579,6 +571,7 @@ fn matches_harness(
                     if !(inputs_in_range(&inputs) && in_bounds(&pre)) {
                         return;
                     }
+                    #(#params)*
                     let (post, outputs) = step(#step_args);
                     let (after, _, _) = #func(&inputs, &pre, #(#args),*);
                     #(#eqs)*
@@ -590,21 +583,10 @@ fn matches_harness(
 /// The states and outputs property `k` reads after the step (`next(s)`, outputs), in
 /// declaration order.
 fn read_after(plan: &Plan, k: usize) -> Vec<SigId> {
-    use crate::ir::{PExpr, When};
     let p = &plan.prog.properties[k];
-    let mut out = Vec::new();
+    let mut out = std::collections::BTreeSet::new();
     for c in p.assumes.iter().chain(&p.ensures) {
-        c.walk(&mut |e| {
-            if let PExpr::Sig(s, when) = e {
-                let kind = plan.prog.sig(*s).kind;
-                let after =
-                    kind == SigKind::Output || (kind == SigKind::State && *when == When::Post);
-                if after && !out.contains(s) {
-                    out.push(*s);
-                }
-            }
-        });
+        c.post_signals(&mut out, false);
     }
-    out.sort();
-    out
+    out.into_iter().collect()
 }

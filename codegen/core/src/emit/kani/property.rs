@@ -6,7 +6,7 @@ use super::docs::{param_names, property_doc};
 use super::exact::Env;
 use super::invariant::Invariants;
 use super::model;
-use super::show::{check, conjuncts, doc_lines, int, param_ty, show_cond, spaced};
+use super::show::{check, conjuncts, doc_lines, param_fields, param_lets, show_cond, spaced};
 use super::sigs::Sigs;
 use super::Skipped;
 use crate::lower::Plan;
@@ -14,16 +14,13 @@ use crate::prop_eval::{param_grids, ParamGrid};
 use proc_macro2::TokenStream;
 use quote::{format_ident, quote};
 
-/// A property checked on the step model under Kani ([`model`]): what `model_matches_step`
-/// needs to call its model.
+/// A property checked on the step model under Kani ([`model`]): what its
+/// `model_matches_<property>` harness needs.
 pub(super) struct Modelled {
-    /// The property's index and name.
+    /// The property's index.
     pub index: usize,
-    pub name: String,
     /// The model function.
     pub func: proc_macro2::Ident,
-    /// Its parameters: name and grid.
-    pub params: Vec<(String, ParamGrid)>,
 }
 
 /// The property harnesses; a property that cannot be evaluated exactly is listed in `skipped`.
@@ -54,38 +51,19 @@ pub(super) fn harnesses(
                 let fname = format_ident!("{harness}");
                 let mut doc = doc_lines(&p.docs);
                 doc.push_str(&property_doc(plan, k, &grids));
-                let param_fields = p.params.iter().zip(&grids).map(|(fp, g)| {
-                    let n = format_ident!("{}", fp.name);
-                    let t = param_ty(g);
-                    let (lo, hi) = (int(g.lo), int(g.hi));
-                    quote! { #[generator(#lo..=#hi)] #n: #t, }
-                });
-                let params = p.params.iter().map(|fp| {
-                    let (v, n) = (
-                        format_ident!("param_{}", fp.name),
-                        format_ident!("{}", fp.name),
-                    );
-                    quote! { let #v = i128::from(c.#n); }
-                });
+                let (param_fields, params) = (param_fields(p, &grids), param_lets(p));
                 let report = format!("{harness}: {{}} cases satisfied the assumptions");
                 let cover = format!("the assumptions of property `{}` are satisfiable", p.name);
                 let (assumes, ensures) = body;
                 let (kani_path, stubs) = match model::model(plan, k, &grids, prods) {
                     Some(Ok(m)) => {
-                        doc.push_str(&model_doc(&m));
+                        doc.push_str(&model_doc(&p.name, &m));
                         let path = model_path(plan, k, &m);
                         let stubs = m.prods.clone();
                         prop_harnesses.push(m.items);
                         modelled.push(Modelled {
                             index: k,
-                            name: p.name.clone(),
                             func: m.func,
-                            params: p
-                                .params
-                                .iter()
-                                .map(|fp| fp.name.clone())
-                                .zip(grids.clone())
-                                .collect(),
                         });
                         (Some(path), stubs)
                     }
@@ -209,15 +187,15 @@ fn property(
 }
 
 /// What the harness doc says of a property checked on the step model.
-fn model_doc(m: &model::Model) -> String {
+fn model_doc(name: &str, m: &model::Model) -> String {
     format!(
         "\n\nUnder Kani this property is checked on the exact-term model `{}` of the step \
-         (`model_matches_{}` proves it equal to the generated step), with its {} products \
-         replaced by their verified contracts (`stub_verified`): products distributed and \
-         shared, each bounded by the sign-split bounds of exact multiplication. Under `cargo \
-         test` it runs the generated step.",
+         (`model_matches_{name}` checks it against the generated step), with its {} products \
+         replaced by their contracts (`stub_verified`, each checked by its `contract_*` \
+         harness): products distributed and shared, each bounded by the McCormick planes and \
+         sign-split bounds of exact multiplication. Under `cargo test` it runs the generated \
+         step.",
         m.func,
-        m.name,
         m.prods.len()
     )
 }

@@ -2,12 +2,12 @@
 //! literals.
 
 use super::super::rust::int_ty;
-use crate::ir::{PCond, PExpr, SigKind, When};
+use crate::ir::{PCond, PExpr, Property, SigKind, When};
 use crate::lower::Plan;
 use crate::prop_eval::ParamGrid;
 use crate::qformat::IntTy;
 use proc_macro2::{Ident, Literal, Span, TokenStream};
-use quote::quote;
+use quote::{format_ident, quote};
 
 /// The narrowest signed Rust type holding a parameter grid.
 pub(super) fn param_ty(g: &ParamGrid) -> Ident {
@@ -224,4 +224,32 @@ pub(super) fn conjuncts(c: &PCond) -> Vec<&PCond> {
         }
         _ => vec![c],
     }
+}
+
+/// Generator fields of a property's free parameters: each on its grid (raw).
+pub(super) fn param_fields(p: &Property, grids: &[ParamGrid]) -> Vec<TokenStream> {
+    p.params
+        .iter()
+        .zip(grids)
+        .map(|(fp, g)| {
+            let n = format_ident!("{}", fp.name);
+            let t = param_ty(g);
+            let (lo, hi) = (int(g.lo), int(g.hi));
+            quote! { #[generator(#lo..=#hi)] #n: #t, }
+        })
+        .collect()
+}
+
+/// `let param_<name> = i128::from(c.<name>);` for each free parameter of a property.
+pub(super) fn param_lets(p: &Property) -> Vec<TokenStream> {
+    p.params
+        .iter()
+        .map(|fp| {
+            let (v, n) = (
+                format_ident!("param_{}", fp.name),
+                format_ident!("{}", fp.name),
+            );
+            quote! { let #v = i128::from(c.#n); }
+        })
+        .collect()
 }
