@@ -185,9 +185,9 @@ impl Checker {
                 format!("`{n}` is a built-in function"),
             ));
         }
-        if n.starts_with('_') || RESERVED.contains(&n.as_str()) {
+        if n.starts_with('_') || n.starts_with("qloop_") || RESERVED.contains(&n.as_str()) {
             return Err(Diag::new(name.span(), format!("`{n}` is reserved for generated code"))
-                .help("names may not start with `_` or be one of: inputs, Inputs, Outputs, States, Controller, Reference"));
+                .help("names may not start with `_` or `qloop_` or be one of: inputs, Inputs, Outputs, States, Controller, Reference"));
         }
         Ok(())
     }
@@ -1013,6 +1013,12 @@ mod tests {
             ),
             (
                 "step { let inputs = x; y = inputs; }",
+                "reserved for generated code",
+                5,
+                12,
+            ),
+            (
+                "step { let qloop_mul_3 = x; y = qloop_mul_3; }",
                 "reserved for generated code",
                 5,
                 12,

@@ -32,11 +32,14 @@ pub fn module(plan: &Plan) -> TokenStream {
     } else {
         quote! {}
     };
+    let muls = plan.var_products().into_iter().map(|id| mul_fn(plan, id));
     quote! {
         #[doc = #doc]
         #[allow(#allows)]
         pub mod #modname {
             #keep
+
+            #(#muls)*
 
             #structs
 
@@ -280,6 +283,42 @@ fn keep_fn() -> TokenStream {
     }
 }
 
+/// The name of the function computing the step's product `id` ([`Plan::var_products`]).
+pub fn mul_fn_name(id: ValId) -> Ident {
+    format_ident!("qloop_mul_{}", id.0)
+}
+
+/// `qloop_mul_<N>(a, b)`: one product of two non-constant values of the step. A function only
+/// so that the Kani harnesses can stub it; always inlined, so the object code is the multiply.
+fn mul_fn(plan: &Plan, id: ValId) -> TokenStream {
+    let v = plan.val(id);
+    let Op::Mul(a, b) = v.op else {
+        return quote! {};
+    };
+    let (va, vb) = (plan.val(a), plan.val(b));
+    let name = mul_fn_name(id);
+    let doc = format!(
+        " The step's product `{} = {} * {}`: factors in [{}, {}] and [{}, {}] (raw). A function \
+         only so that proof harnesses can replace it (`kani::stub`); always inlined, so the \
+         object code is the plain multiply.",
+        val_name(plan, id),
+        val_name(plan, a),
+        val_name(plan, b),
+        va.lo,
+        va.hi,
+        vb.lo,
+        vb.hi
+    );
+    let (ta, tb, t) = (int_ty(va.ty), int_ty(vb.ty), int_ty(v.ty));
+    quote! {
+        #[doc = #doc]
+        #[inline(always)]
+        pub(crate) fn #name(a: #ta, b: #tb) -> #t {
+            a * b
+        }
+    }
+}
+
 fn block(plan: &Plan, stmts: &[LStmt]) -> TokenStream {
     let parts = stmts.iter().map(|s| match s {
         LStmt::Def(id) => {
@@ -354,8 +393,16 @@ fn op_expr(plan: &Plan, id: ValId) -> TokenStream {
             quote! { #a >> #k }
         }
         Op::Mul(a, b) => {
+            // Kept in step with `Plan::var_products`.
+            let var = |x: &ValId| !matches!(plan.val(*x).op, Op::Const(_));
+            let wrapped = var(a) && var(b);
+            let f = mul_fn_name(id);
             let (a, b) = (n(a), n(b));
-            quote! { #a * #b }
+            if wrapped {
+                quote! { #f(#a, #b) }
+            } else {
+                quote! { #a * #b }
+            }
         }
         Op::Min(a, b) => {
             let (a, b) = (n(a), n(b));

@@ -96,6 +96,35 @@ impl Plan {
         &self.vals[id.0]
     }
 
+    /// The step's products of two non-constant values, in the order the step defines them.
+    /// The Rust emitter computes each in its own always-inlined function, so that proof
+    /// harnesses can replace the product by an abstraction (`kani::stub`) while the object
+    /// code stays the plain multiply.
+    pub fn var_products(&self) -> Vec<ValId> {
+        fn walk(plan: &Plan, stmts: &[LStmt], out: &mut Vec<ValId>) {
+            for s in stmts {
+                match s {
+                    LStmt::Def(id) => {
+                        if let Op::Mul(a, b) = plan.val(*id).op {
+                            let var = |x: ValId| !matches!(plan.val(x).op, Op::Const(_));
+                            if var(a) && var(b) {
+                                out.push(*id);
+                            }
+                        }
+                    }
+                    LStmt::Store(..) => {}
+                    LStmt::If(_, t, e) => {
+                        walk(plan, t, out);
+                        walk(plan, e, out);
+                    }
+                }
+            }
+        }
+        let mut out = Vec::new();
+        walk(self, &self.body, &mut out);
+        out
+    }
+
     /// The format of a signal: its storage format, or a `let`'s working format.
     pub fn format(&self, id: SigId) -> QFormat {
         self.summary[id.0].format
