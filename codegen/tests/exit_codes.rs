@@ -814,3 +814,31 @@ fn bench_failures() {
         ],
     );
 }
+
+/// Output into a pipe whose reader has gone (`qloop gen SPEC | head -1`): the process ends
+/// quietly, killed by SIGPIPE as other Unix tools are, instead of panicking in `print!` with
+/// "failed printing to stdout".
+#[cfg(unix)]
+#[test]
+fn closed_stdout_pipe_ends_quietly() {
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::Stdio;
+    let spec = s(&root().join("verified/specs/koren_masory_1981.qloop"));
+    let mut child = Command::new(env!("CARGO_BIN_EXE_qloop"))
+        .args(["gen", &spec, "--lang", "rust"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("qloop runs");
+    // Close the read end before qloop has compiled the spec and written anything.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("qloop ends");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "qloop panicked:\n{err}");
+    assert!(
+        // 13: SIGPIPE on Linux and the BSDs.
+        out.status.success() || out.status.signal() == Some(13),
+        "unexpected status {:?}:\n{err}",
+        out.status
+    );
+}

@@ -393,12 +393,9 @@ fn op_expr(plan: &Plan, id: ValId) -> TokenStream {
             quote! { #a >> #k }
         }
         Op::Mul(a, b) => {
-            // Kept in step with `Plan::var_products`.
-            let var = |x: &ValId| !matches!(plan.val(*x).op, Op::Const(_));
-            let wrapped = var(a) && var(b);
             let f = mul_fn_name(id);
             let (a, b) = (n(a), n(b));
-            if wrapped {
+            if plan.is_var_product(id) {
                 quote! { #f(#a, #b) }
             } else {
                 quote! { #a * #b }

@@ -105,11 +105,8 @@ impl Plan {
             for s in stmts {
                 match s {
                     LStmt::Def(id) => {
-                        if let Op::Mul(a, b) = plan.val(*id).op {
-                            let var = |x: ValId| !matches!(plan.val(x).op, Op::Const(_));
-                            if var(a) && var(b) {
-                                out.push(*id);
-                            }
+                        if plan.is_var_product(*id) && !out.contains(id) {
+                            out.push(*id);
                         }
                     }
                     LStmt::Store(..) => {}
@@ -123,6 +120,12 @@ impl Plan {
         let mut out = Vec::new();
         walk(self, &self.body, &mut out);
         out
+    }
+
+    /// Whether value `id` is a product of two non-constant values ([`Plan::var_products`]).
+    pub fn is_var_product(&self, id: ValId) -> bool {
+        let var = |x: ValId| !matches!(self.val(x).op, Op::Const(_));
+        matches!(self.val(id).op, Op::Mul(a, b) if var(a) && var(b))
     }
 
     /// The format of a signal: its storage format, or a `let`'s working format.
