@@ -10,14 +10,6 @@ use cli::error::CliResult;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    // Writing to a closed pipe (`qloop gen SPEC --lang rust | head`) ends the process quietly,
-    // as for other Unix tools, instead of panicking in `print!`.
-    #[cfg(unix)]
-    // SAFETY: first thing in `main`, before any other thread exists; `SIG_DFL` is a valid
-    // disposition for SIGPIPE.
-    unsafe {
-        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
-    }
     match Cli::try_parse().map_err(Into::into).and_then(run) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -815,13 +815,11 @@ fn bench_failures() {
     );
 }
 
-/// Output into a pipe whose reader has gone (`qloop gen SPEC | head -1`): the process ends
-/// quietly, killed by SIGPIPE as other Unix tools are, instead of panicking in `print!` with
-/// "failed printing to stdout".
+/// Output into a pipe whose reader has gone (`qloop gen SPEC | head -1`): `gen` ends quietly
+/// with 0 instead of panicking in `print!` with "failed printing to stdout".
 #[cfg(unix)]
 #[test]
 fn closed_stdout_pipe_ends_quietly() {
-    use std::os::unix::process::ExitStatusExt;
     use std::process::Stdio;
     let spec = s(&root().join("verified/specs/koren_masory_1981.qloop"));
     let mut child = Command::new(env!("CARGO_BIN_EXE_qloop"))
@@ -836,8 +834,7 @@ fn closed_stdout_pipe_ends_quietly() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!err.contains("panicked"), "qloop panicked:\n{err}");
     assert!(
-        // 13: SIGPIPE on Linux and the BSDs.
-        out.status.success() || out.status.signal() == Some(13),
+        out.status.success(),
         "unexpected status {:?}:\n{err}",
         out.status
     );

@@ -376,14 +376,6 @@ fn what_a_component_cannot_represent_is_refused_with_a_message() {
         (
             spec(
                 "t",
-                "input x: [0.0, 1.0]; input qloop_v: [0.0, 1.0]; output y;",
-                "y = x + qloop_v;",
-            ),
-            "starts with `qloop_`",
-        ),
-        (
-            spec(
-                "t",
                 "input x: [0.0, 1.0]; param STEPS: 2.0; output y;",
                 "y = x * STEPS;",
             ),

@@ -5,6 +5,7 @@ use super::args::Lang;
 use super::error::{CliError, CliResult};
 use super::files::{create_dir, load, write_atomic};
 use qloop::Plan;
+use std::io::Write;
 use std::path::Path;
 
 /// What `qloop gen` was asked to do.
@@ -43,8 +44,16 @@ pub fn run(a: &GenArgs) -> CliResult {
     match a.output {
         Some(p) => write_atomic(p, &text),
         None => {
-            print!("{text}");
-            Ok(())
+            // Not `print!`: it panics when the reader has gone (`qloop gen SPEC | head`). Then
+            // there is nothing left to do. (SIGPIPE stays ignored, as Rust sets it: `prove`
+            // writes to solvers that may exit first.)
+            let mut out = std::io::stdout().lock();
+            match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+                Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(CliError::failed(
+                    format!("cannot write to standard output: {e}"),
+                )),
+                _ => Ok(()),
+            }
         }
     }
 }
