@@ -105,3 +105,33 @@ fn printed_bounds_hold_on_the_seed_specs_and_the_corpus() {
         assert!(n > 0, "{name}: no bound was compared");
     }
 }
+
+/// A random spec (seed 1795571380726870180) on which the printed bound of `y` was 1 unit of its
+/// last bit too small: `-2.629` rounds to `-3` next to the integer `a`, an error of 0.371 that
+/// is just below 0.371 as an f64, and the round-to-nearest sum with the 1e-17 errors of `b`'s
+/// terms stayed there. Error bounds are now summed rounding up (`lower/err_bound.rs`).
+#[test]
+fn a_bound_exact_at_its_printed_digits_still_covers_the_tiny_errors_added_to_it() {
+    let src = "controller random {
+        period 0.01 \"s\";
+        rounding nearest;
+        word 64;
+        #[q(u8, 0)]
+        input a: [0.0, 148.0];
+        input b: [0.0, 0.0001366];
+        output y;
+        output z: [(-16.24), 18.69];
+        step {
+            let l0 = max((if b >= a { b } else { b }), (if b >= b { 3.369 } else { (-4.1961669921875e-5) }));
+            y = ((b - (-6.537e-6)) - ((-2.629) + a)) + l0;
+            if 6.5625 > a || (a * b) >= (0.805 * b) { z = (-b); } else { z = (b + b); }
+        }
+    }";
+    let plan = qloop::compile_str(src, &Target::default()).expect("compiles");
+    let case = qloop_tests::cases::Case {
+        inputs: vec![6, 106_090_008_610_664],
+        states: vec![],
+    };
+    let c = check(&plan, &case).unwrap_or_else(|e| panic!("{e}"));
+    assert!(c.bounds > 0, "no bound was compared");
+}

@@ -42,7 +42,7 @@ impl Lowerer<'_> {
             Cond::Cmp(op, a, b) => {
                 let (a, b) = self.pair(a, b, 0, out)?;
                 let (a, b, _, _) = self.align(a, b, Bin::Hull, self.here, out)?;
-                let band = self.v(a).err + self.v(b).err;
+                let band = super::err_bound::add(self.v(a).err, self.v(b).err);
                 (Op::Cmp(*op, a, b), band)
             }
             Cond::And(a, b) => (Op::And(self.cond(a, out)?, self.cond(b, out)?), 0.0),

@@ -10,7 +10,7 @@
 //! `x · m · 2^-k`.
 
 use super::lir::{LStmt, Op, Val, ValId};
-use super::{shift_add, shl_exact, Bin, Lowerer, MulNote, NewVal};
+use super::{err_bound, shift_add, shl_exact, Bin, Lowerer, MulNote, NewVal};
 use crate::diag::{Diag, Result};
 use crate::qformat::{pow2, IntTy, QFormat};
 use proc_macro2::Span;
@@ -79,14 +79,17 @@ impl Lowerer<'_> {
         let n = self.factor_rounding(x, c, span)?;
         let x = self.round(x, n, span, out)?;
         let xv = self.v(x);
-        let mx = xv.lo.abs().max(xv.hi.abs()) as f64 * pow2(-xv.frac);
+        let mx = err_bound::magnitude(xv.lo.abs().max(xv.hi.abs()), xv.frac);
         let (m, k) = if c == 0.0 || mx == 0.0 {
             (0, 0)
         } else {
             quantise(c, xv.frac, mx).ok_or_else(|| too_wide_product(c, span))?
         };
         let q = m as f64 * pow2(-k);
-        let err = (q.abs() * xv.err) + (mx + xv.err) * (q - c).abs();
+        let err = err_bound::add(
+            err_bound::mul(q.abs(), xv.err),
+            err_bound::mul(err_bound::add(mx, xv.err), err_bound::dist(q, c)),
+        );
         let frac = xv.frac + k;
         Ok((x, ConstFactor { m, k, frac, err }))
     }

@@ -19,6 +19,7 @@
 mod compare;
 mod const_mul;
 pub mod dce;
+mod err_bound;
 pub mod lir;
 mod rounding;
 pub mod shift_add;
@@ -524,12 +525,12 @@ impl<'a> Lowerer<'a> {
             // error.
             if let Some((l, h)) = self.prog.sig(id).range {
                 let below = if q.ty.min() < lo {
-                    q.value(lo) - l
+                    err_bound::sub(err_bound::value(lo, q.frac, true), l)
                 } else {
                     0.0
                 };
                 let above = if q.ty.max() > hi {
-                    h - q.value(hi)
+                    err_bound::sub(h, err_bound::value(hi, q.frac, false))
                 } else {
                     0.0
                 };
@@ -880,8 +881,10 @@ impl<'a> Lowerer<'a> {
         } else if pre_clamped || y.lo < lo || y.hi > hi {
             v = self.clamp(v, lo, hi, out)?;
             if let Some((l, h)) = self.prog.sig(target).range {
-                let gap = (q.value(lo) - l).max(h - q.value(hi)).max(0.0);
-                err += gap;
+                let gap = err_bound::sub(err_bound::value(lo, q.frac, true), l)
+                    .max(err_bound::sub(h, err_bound::value(hi, q.frac, false)))
+                    .max(0.0);
+                err = err_bound::add(err, gap);
             }
         }
         self.vals[v.0].err = err;
@@ -1040,7 +1043,8 @@ impl<'a> Lowerer<'a> {
             })
             .unwrap_or(ctx)
             .min(cap);
-        let raw = (c * pow2(frac)).round() as i128;
+        let scaled = c * pow2(frac);
+        let raw = scaled.round() as i128;
         if raw == 0 && c != 0.0 {
             return Err(Diag::new(
                 span,
@@ -1058,7 +1062,8 @@ impl<'a> Lowerer<'a> {
             ));
         }
         let ty = self.working(raw, raw, span)?;
-        let err = (c - raw as f64 * pow2(-frac)).abs();
+        // The fraction part of an f64 is exact in f64, and so is scaling by a power of two.
+        let err = (scaled - scaled.round()).abs() * pow2(-frac);
         Ok(self.push(NewVal::constant(raw, ty, frac, err), out))
     }
 
@@ -1194,8 +1199,8 @@ impl<'a> Lowerer<'a> {
         let (x, y) = (self.v(a).clone(), self.v(b).clone());
         let (lo, hi) = op.range((x.lo, x.hi), (y.lo, y.hi));
         let (o, err) = match op {
-            Bin::Add => (Op::Add(a, b), x.err + y.err),
-            Bin::Sub => (Op::Sub(a, b), x.err + y.err),
+            Bin::Add => (Op::Add(a, b), err_bound::add(x.err, y.err)),
+            Bin::Sub => (Op::Sub(a, b), err_bound::add(x.err, y.err)),
             Bin::Min => (Op::Min(a, b), x.err.max(y.err)),
             Bin::Max => (Op::Max(a, b), x.err.max(y.err)),
             Bin::Hull | Bin::Mul => unreachable!("not an additive operation"),
@@ -1224,9 +1229,12 @@ impl<'a> Lowerer<'a> {
                 let a2 = self.cast(a, ty, out);
                 let b2 = self.cast(b, ty, out);
                 let (plo, phi) = Bin::Mul.range((x.lo, x.hi), (y.lo, y.hi));
-                let mx = x.lo.abs().max(x.hi.abs()) as f64 * pow2(-x.frac);
-                let my = y.lo.abs().max(y.hi.abs()) as f64 * pow2(-y.frac);
-                let err = mx * y.err + my * x.err + 3.0 * x.err * y.err;
+                let mx = err_bound::magnitude(x.lo.abs().max(x.hi.abs()), x.frac);
+                let my = err_bound::magnitude(y.lo.abs().max(y.hi.abs()), y.frac);
+                let err = err_bound::add(
+                    err_bound::add(err_bound::mul(mx, y.err), err_bound::mul(my, x.err)),
+                    err_bound::mul(3.0, err_bound::mul(x.err, y.err)),
+                );
                 return Ok(self.push(
                     NewVal {
                         op: Op::Mul(a2, b2),
@@ -1250,17 +1258,6 @@ impl<'a> Lowerer<'a> {
                 b = self.round(b, 1, span, out)?;
             }
         }
-    }
-}
-
-/// `v` as an f64, rounded up where it has more than 53 significant bits (an error bound must
-/// not shrink in the conversion).
-fn up_f64(v: u128) -> f64 {
-    let f = v as f64;
-    if (f as u128) < v {
-        f.next_up()
-    } else {
-        f
     }
 }
 

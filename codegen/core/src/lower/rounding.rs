@@ -3,7 +3,7 @@
 //! Rounding happens only here, and each rounding adds its error to the value's bound.
 
 use super::lir::{LStmt, Op, ValId};
-use super::{shl_exact, up_f64, Lowerer, NewVal};
+use super::{err_bound, shl_exact, Lowerer, NewVal};
 use crate::diag::{Diag, Result};
 use crate::qformat::{pow2, IntTy, Rounding};
 use proc_macro2::Span;
@@ -75,7 +75,7 @@ impl Lowerer<'_> {
             let err = if x.lo == x.hi && n <= 126 {
                 // A constant rounded at compile time: its exact rounding error, from the
                 // integers (the difference of the two values in f64 would cancel).
-                up_f64((x.lo - (lo << n)).unsigned_abs()) * lsb_src
+                err_bound::magnitude(x.lo - (lo << n), x.frac)
             } else if x.lo == x.hi {
                 // Rounded by more bits than an i128 shifts: at most one LSB of the result.
                 pow2(-frac)
@@ -83,7 +83,10 @@ impl Lowerer<'_> {
                 added
             };
             let ty = self.working(lo, lo, span)?;
-            return Ok(self.push(NewVal::constant(lo, ty, frac, x.err + err), out));
+            return Ok(self.push(
+                NewVal::constant(lo, ty, frac, err_bound::add(x.err, err)),
+                out,
+            ));
         }
         let mut src = v;
         let mut x = x;
@@ -117,7 +120,7 @@ impl Lowerer<'_> {
                 frac,
                 lo,
                 hi,
-                err: x.err + added,
+                err: err_bound::add(x.err, added),
             },
             out,
         ))
@@ -185,7 +188,7 @@ impl Lowerer<'_> {
                 frac,
                 lo: ql,
                 hi: qh + 1,
-                err: x.err + added,
+                err: err_bound::add(x.err, added),
             },
             out,
         )
