@@ -34,19 +34,11 @@ fn harness_snapshots() {
                 .iter()
                 .map(|p| format!("property_{}", p.name)),
         );
-        // Properties checked on a step model under Kani have a harness proving the model.
-        harnesses.extend(
-            plan.prog
-                .properties
-                .iter()
-                .filter(|p| text.contains(&format!("fn model_{}(", p.name)))
-                .map(|p| format!("model_matches_{}", p.name)),
-        );
         for h in &harnesses {
             let at = text
                 .find(&format!("fn {h}()"))
                 .unwrap_or_else(|| panic!("{stem}: harness {h} missing"));
-            // The attributes: `#[test]`, the Kani proof, then any `stub_verified` or solver.
+            // The attributes: `#[test]`, the Kani proof, then any stub or solver.
             let attrs: Vec<&str> = text[..at]
                 .lines()
                 .rev()
@@ -57,7 +49,7 @@ fn harness_snapshots() {
             let stubs = attrs
                 .iter()
                 .take_while(|a| {
-                    a.starts_with("#[cfg_attr(kani, kani::stub_verified(")
+                    a.starts_with("#[cfg_attr(kani, kani::stub(")
                         || a.starts_with("#[cfg_attr(kani, kani::solver(")
                 })
                 .count();
@@ -76,51 +68,105 @@ fn harness_snapshots() {
     }
 }
 
-/// The chain of assumptions is closed: every function a harness `stub_verified`s has a
-/// `proof_for_contract` harness, every contract harness checks a function some harness
-/// stubs, and every step model a property harness runs under Kani has its
-/// `model_matches_*` harness. The 1981 gain-loop and estimator contraction are modelled.
+/// The chain of assumptions is closed: every function a harness stubs is replaced by an
+/// abstraction defined in the module, and every clause an abstraction assumes is the clause a
+/// `lemma_*` harness (a plain `kani::proof`) asserts of the function it abstracts, over the
+/// same factor box that the abstraction asserts. The 1981 gain-loop and estimator
+/// contractions are abstracted.
 #[test]
-fn every_stub_has_a_verified_contract_and_every_model_a_match() {
-    let mut modelled = Vec::new();
+fn every_assumed_clause_is_a_lemma_over_the_asserted_box() {
+    let mut abstracted = Vec::new();
     for (stem, src) in all_specs() {
         let text = qloop::gen_kani(&compile(&src));
-        let names = |pat: &str| -> std::collections::BTreeSet<String> {
-            text.match_indices(pat)
+        let body = |name: &str| -> &str {
+            let at = text
+                .find(&format!("fn {name}("))
+                .unwrap_or_else(|| panic!("{stem}: {name} is not defined"));
+            let rest = &text[at..];
+            &rest[..rest.find("\n    }\n").expect("end of item")]
+        };
+        // `kani::stub(super::<module>::qloop_mul_<n>, abs_mul_<n>)`
+        let mut stubbed = std::collections::BTreeSet::new();
+        for (i, _) in text.match_indices("kani::stub(") {
+            let rest = &text[i + "kani::stub(".len()..];
+            let args = &rest[..rest.find(')').expect("closing parenthesis")];
+            let (real, abs) = args.split_once(", ").expect("two arguments");
+            let n = real.rsplit("qloop_mul_").next().unwrap_or_default();
+            assert_eq!(
+                abs,
+                format!("abs_mul_{n}"),
+                "{stem}: {real} stubbed by {abs}"
+            );
+            stubbed.insert(abs.to_string());
+        }
+        // Every abstraction: stubbed ones and the harness-only products they call.
+        let mut abstractions = stubbed.clone();
+        for (i, _) in text.match_indices("fn abs_prod_") {
+            let rest = &text[i + 3..];
+            abstractions.insert(rest[..rest.find('(').expect("parameters")].to_string());
+        }
+        let between = |s: &str, a: &str, b: &str| -> Vec<String> {
+            s.match_indices(a)
                 .map(|(i, _)| {
-                    let rest = &text[i + pat.len()..];
-                    rest[..rest.find(')').expect("closing parenthesis")].to_string()
+                    let rest = &s[i + a.len()..];
+                    rest[..rest.find(b).expect("terminator")].trim().to_string()
                 })
                 .collect()
         };
-        let stubbed = names("kani::stub_verified(");
-        let verified = names("#[kani::proof_for_contract(");
-        assert_eq!(
-            stubbed, verified,
-            "{stem}: stubs without contracts, or unused contracts"
-        );
-        for f in &stubbed {
-            assert!(
-                text.contains(&format!("fn {f}(a: i128, b: i128)")),
-                "{stem}: stubbed function {f} is not defined"
+        let squeeze = |s: &str| -> String { s.split_whitespace().collect() };
+        for abs in &abstractions {
+            let b = squeeze(body(abs));
+            let b = b.as_str();
+            let assumed: Vec<String> = between(b, "kani::assume(", ");");
+            assert!(!assumed.is_empty(), "{stem}: {abs} assumes nothing");
+            let boxes = between(b, "kani::assert(", ".contains(&");
+            assert_eq!(
+                boxes.len(),
+                2,
+                "{stem}: {abs} does not assert both factors' intervals"
             );
+            let tag = abs.trim_start_matches("abs_");
+            let lemmas: Vec<(usize, &str)> =
+                text.match_indices(&format!("fn lemma_{tag}_")).collect();
+            assert_eq!(
+                lemmas.len(),
+                assumed.len(),
+                "{stem}: {abs} assumes {} clauses, {} lemmas",
+                assumed.len(),
+                lemmas.len()
+            );
+            for clause in &assumed {
+                let proved = lemmas.iter().any(|(i, _)| {
+                    let rest = &text[*i..];
+                    let l = squeeze(&rest[..rest.find("\n    }\n").expect("end of lemma")]);
+                    let attrs = &text[..*i];
+                    attrs.trim_end().ends_with("#[kani::proof]")
+                        && l.contains(&format!("kani::assert({clause},"))
+                        && boxes.iter().all(|r| l.contains(&format!("{r}.contains(&")))
+                });
+                assert!(
+                    proved,
+                    "{stem}: {abs} assumes `{clause}`, which no lemma over its box proves"
+                );
+            }
         }
-        for m in names("let (_, premises, goals) = model_") {
-            let prop = m.split('(').next().unwrap_or_default().to_string();
-            assert!(
-                text.contains(&format!("fn model_matches_{prop}()")),
-                "{stem}: model of {prop} has no model_matches harness"
-            );
-            modelled.push(format!("{stem}::{prop}"));
+        for p in ["gain_loop_contraction", "estimator_contraction"] {
+            if text.contains(&format!("fn property_{p}()"))
+                && body(&format!("property_{p}")).contains("abs_mul_")
+            {
+                abstracted.push(format!("{stem}::{p}"));
+            }
         }
     }
     for p in [
         "koren_masory_1981::gain_loop_contraction",
         "koren_masory_1981::estimator_contraction",
+        "milling_acc::gain_loop_contraction",
+        "milling_acc::estimator_contraction",
     ] {
         assert!(
-            modelled.iter().any(|m| m == p),
-            "{p} is not modelled: {modelled:?}"
+            abstracted.iter().any(|m| m == p),
+            "{p} is not abstracted: {abstracted:?}"
         );
     }
 }

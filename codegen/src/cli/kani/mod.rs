@@ -4,8 +4,8 @@
 //! One at a time because parallel CBMC runs on a small machine inflate each other's times, and
 //! the table is a measurement. Each harness runs as `cargo kani --tests --package=P --exact
 //! --harness H --output-format terse -Z unstable-options -Z function-contracts -Z stubbing
-//! --harness-timeout T` (the property harnesses `stub_verified` their product contracts);
-//! Kani stops
+//! --harness-timeout T` (the abstracted property harnesses `kani::stub` the step's products;
+//! `-Z function-contracts` lets a crate's own contract harnesses run too). Kani stops
 //! CBMC at `T` and reports "CBMC timed out", shown here as TIMEOUT. As a backstop the whole
 //! `cargo kani` process group is killed `--grace-secs` after `T` (compiling happens once,
 //! when the harnesses are listed, so a run needs little more than its verification time).

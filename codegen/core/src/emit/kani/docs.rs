@@ -7,7 +7,12 @@ use crate::lower::Plan;
 use crate::prop_eval::ParamGrid;
 
 /// The module's doc comment.
-pub(super) fn module_doc(plan: &Plan, skipped: &[(String, String)], modelled: &[String]) -> String {
+pub(super) fn module_doc(
+    plan: &Plan,
+    skipped: &[(String, String)],
+    abstracted: &[String],
+    products: &[String],
+) -> String {
     let p = &plan.prog;
     let intro: Vec<&str> = p
         .docs
@@ -70,25 +75,30 @@ pub(super) fn module_doc(plan: &Plan, skipped: &[(String, String)], modelled: &[
          assertions catch them where they reach a state, and the overflow obligations of \
          `qloop prove` cover every value.\n",
     );
-    if !modelled.is_empty() {
-        let props = list(modelled.iter().map(|n| format!("`property_{n}`")));
+    if !abstracted.is_empty() {
+        let props = list(abstracted.iter().map(|n| format!("`property_{n}`")));
+        let prods: String = products.iter().map(|l| format!("* {l};\n")).collect();
         d.push_str(&format!(
             "\nUnder Kani, {props} multiply two non-constant values, which CBMC cannot relate to \
-             the products the step computes itself. They are checked on an exact-term model of \
-             the step instead (`model_<property>`: products distributed over sums and \
-             `if`s, each distinct product computed once), with every product replaced by its \
-             contract. Each harness assumes only what another harness checks (a proof once all of \
-             them verify):\n\n\
-             * `contract_prod_<n>` (`proof_for_contract`): the product function, exact \
-               multiplication, meets its contract: McCormick planes and sign-split bounds over \
-               its factors' intervals;\n\
-             * `model_matches_<property>`: the model with exact products computes the values \
-               the property reads after the step as the generated step does, bit for bit (on \
-               CBMC's SMT back-end, cvc5);\n\
-             * `property_<property>` (`stub_verified` on its products, which checks each \
-               call's `requires`): the property holds on the model for every product value \
-               the contracts allow, the exact ones among them.\n\n\
-             Contracts and stubs need `cargo kani -Z function-contracts -Z stubbing`.\n"
+             the products the step computes itself. They run the generated step with each of its \
+             products stubbed (`kani::stub`) by an abstraction, and evaluate the invariants and \
+             their own products through the same abstractions, rewritten exactly onto the \
+             step's: `next(x)·y` is `lo·y` or `hi·y` where `x` saturated, else \
+             `x·y + (next(x) − x)·y`; a parameter `p` compared with a state `s` is `s·2^k + d`. \
+             An abstraction asserts that its factors are inside their proved intervals and \
+             returns a value satisfying its clauses (equal factors, equal value). Each \
+             harness assumes only what another harness checks (a proof once all of them \
+             verify):\n\n\
+             * `lemma_<product>_<clause>`: for every pair of factors inside the intervals, the \
+               product function (the step's `qloop_mul_<n>`, or a harness-only \
+               `exact_prod_<n>`) satisfies the clause: a McCormick plane \
+               (`(x − xₗ)(y − yₗ) ≥ 0` and the like) or a sign-split bound \
+               (`x ≥ 0 ⇒ yₗ·x ≤ x·y ≤ yᵤ·x` and the like);\n\
+             * `property_<property>` (with the stubs): the property holds for every product \
+               value the clauses allow, the exact ones among them; the factor assertions are \
+               checked here.\n\n\
+             The products and the clauses assumed:\n\n{prods}\n\
+             Stubs need `cargo kani -Z stubbing`.\n"
         ));
     }
     let claimed: Vec<String> = p

@@ -2,6 +2,7 @@
 //! with the interval of its raw value ([`crate::prop_eval::ExactDomain`]): a harness refuses a
 //! condition it could not evaluate without overflow.
 
+use super::abstraction::{Abstraction, Atom};
 use super::show::i128_lit;
 use super::LIMIT_BITS;
 use crate::ir::{CmpOp, PCond, SigId, SigKind, When};
@@ -9,9 +10,10 @@ use crate::lower::Plan;
 use crate::prop_eval::{self, Arith, ExactDomain, ParamGrid};
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::{format_ident, quote};
+use std::cell::RefCell;
 
 /// Where a property expression reads its values.
-pub(super) struct Env<'a> {
+pub(super) struct Env<'a, 'p> {
     pub(super) plan: &'a Plan,
     /// Free parameters: grids and names.
     pub(super) grids: &'a [ParamGrid],
@@ -20,17 +22,22 @@ pub(super) struct Env<'a> {
     pub(super) pre: Ident,
     /// Post-step states.
     pub(super) post: Ident,
+    /// Under Kani's abstracted path: the products of two non-constant values go through
+    /// these abstractions ([`Abstraction::product`]) instead of multiplying.
+    pub(super) abs: Option<&'a RefCell<Abstraction<'p>>>,
 }
 
 /// An exactly evaluated `i128` expression: its tokens, its binary point and the bounds of its
 /// raw value.
 pub(super) struct Ev {
-    t: TokenStream,
+    pub(super) t: TokenStream,
     frac: i32,
-    lo: i128,
-    hi: i128,
+    pub(super) lo: i128,
+    pub(super) hi: i128,
     /// The raw value, if constant.
     konst: Option<i128>,
+    /// The signal or parameter it reads, if it is one read as is.
+    pub(super) atom: Option<Atom>,
 }
 
 fn limit() -> i128 {
@@ -54,6 +61,7 @@ impl Ev {
             lo: v,
             hi: v,
             konst: Some(v),
+            atom: None,
         }
     }
 
@@ -80,11 +88,46 @@ impl Ev {
             lo,
             hi,
             konst: None,
+            atom: None,
         })
     }
 }
 
-impl Env<'_> {
+impl<'a, 'p> Env<'a, 'p> {
+    /// A property's environment: pre-step states in `pre`, post-step ones in `post`, the
+    /// parameters `param_<name>` on their grids.
+    pub(super) fn step(
+        plan: &'a Plan,
+        grids: &'a [ParamGrid],
+        params: &'a [String],
+        abs: Option<&'a RefCell<Abstraction<'p>>>,
+    ) -> Self {
+        Env {
+            plan,
+            grids,
+            params,
+            pre: format_ident!("pre"),
+            post: format_ident!("post"),
+            abs,
+        }
+    }
+
+    /// An invariant's environment: the states in `states`, no parameters.
+    pub(super) fn states(
+        plan: &'a Plan,
+        states: &str,
+        abs: Option<&'a RefCell<Abstraction<'p>>>,
+    ) -> Self {
+        Env {
+            plan,
+            grids: &[],
+            params: &[],
+            pre: format_ident!("{states}"),
+            post: format_ident!("{states}"),
+            abs,
+        }
+    }
+
     /// The `bool` expression of `c`, or why it cannot be evaluated exactly.
     pub(super) fn cond(&self, c: &PCond) -> Result<TokenStream, String> {
         prop_eval::cond(&mut &*self, c)
@@ -93,7 +136,7 @@ impl Env<'_> {
 
 /// `i128` Rust expressions, each with the interval of its raw value: a harness refuses a
 /// property it could not evaluate without overflow.
-impl ExactDomain for &Env<'_> {
+impl ExactDomain for &Env<'_, '_> {
     type Value = Ev;
     type Bool = TokenStream;
     type Error = String;
@@ -115,6 +158,11 @@ impl ExactDomain for &Env<'_> {
         let s = plan.prog.sig(id);
         let q = plan.format(id);
         let n = format_ident!("{}", s.name);
+        let atom = match (s.kind, when) {
+            (SigKind::Input, _) | (SigKind::State, When::Pre) => Some(Atom::Pre(id)),
+            (SigKind::State, When::Post) => Some(Atom::Post(id)),
+            _ => None,
+        };
         let (t, (lo, hi)) = match (s.kind, when) {
             (SigKind::Input, _) => (quote! { inputs.#n }, plan.bounds(id)),
             (SigKind::State, When::Pre) => {
@@ -138,6 +186,7 @@ impl ExactDomain for &Env<'_> {
             lo,
             hi,
             konst: None,
+            atom,
         })
     }
 
@@ -154,6 +203,7 @@ impl ExactDomain for &Env<'_> {
             lo: g.lo,
             hi: g.hi,
             konst: None,
+            atom: Some(Atom::Param(i)),
         })
     }
 
@@ -168,6 +218,7 @@ impl ExactDomain for &Env<'_> {
             lo: -a.hi,
             hi: -a.lo,
             konst: None,
+            atom: None,
         })
     }
 
@@ -189,6 +240,7 @@ impl ExactDomain for &Env<'_> {
             lo,
             hi,
             konst: None,
+            atom: None,
         })
     }
 
@@ -223,6 +275,7 @@ impl ExactDomain for &Env<'_> {
             lo,
             hi,
             konst: None,
+            atom: None,
         })
     }
 
@@ -243,6 +296,19 @@ impl ExactDomain for &Env<'_> {
         if let (Some(x), Some(y)) = (a.konst, b.konst) {
             return Ok(Ev::konst(x * y, frac));
         }
+        if let Some(abs) = self.abs {
+            if a.konst.is_none() && b.konst.is_none() {
+                let t = abs.borrow_mut().product(&a, &b)?;
+                return Ok(Ev {
+                    t,
+                    frac,
+                    lo,
+                    hi,
+                    konst: None,
+                    atom: None,
+                });
+            }
+        }
         let (x, y) = (a.t, b.t);
         Ok(Ev {
             t: quote! { (#x * #y) },
@@ -250,6 +316,7 @@ impl ExactDomain for &Env<'_> {
             lo,
             hi,
             konst: None,
+            atom: None,
         })
     }
 

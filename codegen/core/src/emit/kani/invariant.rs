@@ -33,13 +33,7 @@ impl Invariants {
             blocked: None,
         };
         for inv in &plan.prog.invariants {
-            let env = Env {
-                plan,
-                grids: &[],
-                params: &[],
-                pre: format_ident!("s"),
-                post: format_ident!("s"),
-            };
+            let env = Env::states(plan, "s", None);
             let text = show_cond(plan, &[], &inv.cond);
             match env.cond(&inv.cond) {
                 Ok(c) => {

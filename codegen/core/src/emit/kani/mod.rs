@@ -39,11 +39,11 @@
 //! (the exact `i128` evaluator), `model` (the step models, their product contracts and
 //! `model_matches_*`), `docs` and `show` (doc text and literals).
 
+mod abstraction;
 mod docs;
 mod exact;
 mod initial;
 mod invariant;
-mod model;
 mod overflow;
 mod property;
 mod scaffold;
@@ -79,11 +79,16 @@ pub fn module(plan: &Plan) -> TokenStream {
     let ranges = overflow::harness(plan, &sigs);
     let initial = initial::harness(plan, &sigs, &invs);
     let inv_harnesses = invariant::harnesses(plan, &sigs, &invs, &mut skipped);
-    let (mut modelled, mut prods) = (Vec::new(), model::Products::default());
+    let abs = std::cell::RefCell::new(abstraction::Abstraction::new(plan));
+    let mut abstracted = Vec::new();
     let prop_harnesses =
-        property::harnesses(plan, &sigs, &invs, &mut skipped, &mut modelled, &mut prods);
-    let matches = model::matches_harnesses(plan, &sigs, &modelled);
-    let prods = prods.items();
+        property::harnesses(plan, &sigs, &invs, &mut skipped, &mut abstracted, &abs);
+    let abs = abs.into_inner();
+    let (abs_items, abs_summary) = if abstracted.is_empty() {
+        (TokenStream::new(), Vec::new())
+    } else {
+        (abs.items(), abs.summary())
+    };
     let shared = scaffold::items(&sigs, &invs);
 
     let skipped_items = skipped.iter().map(|(h, why)| {
@@ -92,11 +97,7 @@ pub fn module(plan: &Plan) -> TokenStream {
         quote! { #[doc = #d] pub const #c: &str = #why; }
     });
 
-    let modelled_names: Vec<String> = modelled
-        .iter()
-        .map(|m| prog.properties[m.index].name.clone())
-        .collect();
-    let doc = docs::module_doc(plan, &skipped, &modelled_names);
+    let doc = docs::module_doc(plan, &skipped, &abstracted, &abs_summary);
     let allows = super::allowed_lints();
     let cases = Literal::usize_unsuffixed(CASES);
     let doc_s = show::spaced(&doc);
@@ -119,8 +120,7 @@ pub fn module(plan: &Plan) -> TokenStream {
             #initial
             #(#inv_harnesses)*
             #(#prop_harnesses)*
-            #(#matches)*
-            #prods
+            #abs_items
             #(#skipped_items)*
         }
     }

@@ -2,37 +2,30 @@
 //! bounds and invariants, and free parameters on their grid, the `assume`s imply every
 //! `ensure` after one step (the property obligations of `qloop prove`).
 
+use super::abstraction::{multiplies, Abstraction};
 use super::docs::{param_names, property_doc};
 use super::exact::Env;
 use super::invariant::Invariants;
-use super::model;
 use super::show::{check, conjuncts, doc_lines, param_fields, param_lets, show_cond, spaced};
 use super::sigs::Sigs;
 use super::Skipped;
+use crate::ir::PCond;
 use crate::lower::Plan;
 use crate::prop_eval::{param_grids, ParamGrid};
 use proc_macro2::TokenStream;
 use quote::{format_ident, quote};
-
-/// A property checked on the step model under Kani ([`model`]): what its
-/// `model_matches_<property>` harness needs.
-pub(super) struct Modelled {
-    /// The property's index.
-    pub index: usize,
-    /// The model function.
-    pub func: proc_macro2::Ident,
-}
+use std::cell::RefCell;
 
 /// The property harnesses; a property that cannot be evaluated exactly is listed in `skipped`.
-/// Properties checked on the step model under Kani are listed in `modelled`, and their
-/// models and products are part of the returned items.
+/// Properties that multiply two non-constant values run, under Kani, on the step with its
+/// products abstracted ([`Abstraction`]); their names are listed in `abstracted`.
 pub(super) fn harnesses(
     plan: &Plan,
     sigs: &Sigs,
     invs: &Invariants,
     skipped: &mut Skipped,
-    modelled: &mut Vec<Modelled>,
-    prods: &mut model::Products,
+    abstracted: &mut Vec<String>,
+    abs: &RefCell<Abstraction<'_>>,
 ) -> Vec<TokenStream> {
     let prog = &plan.prog;
     let (in_names, step_args, pre_from_case) =
@@ -55,26 +48,23 @@ pub(super) fn harnesses(
                 let report = format!("{harness}: {{}} cases satisfied the assumptions");
                 let cover = format!("the assumptions of property `{}` are satisfiable", p.name);
                 let (assumes, ensures) = body;
-                let (kani_path, stubs) = match model::model(plan, k, &grids, prods) {
-                    Some(Ok(m)) => {
-                        doc.push_str(&model_doc(&p.name, &m));
-                        let path = model_path(plan, k, &m);
-                        let stubs = m.prods.clone();
-                        prop_harnesses.push(m.items);
-                        modelled.push(Modelled {
-                            index: k,
-                            func: m.func,
-                        });
-                        (Some(path), stubs)
-                    }
-                    Some(Err(why)) => {
-                        doc.push_str(&format!(
-                            "\n\nUnder Kani this harness runs the generated step itself: {why}."
-                        ));
-                        (None, Vec::new())
-                    }
-                    None => (None, Vec::new()),
-                };
+                let wants = p.assumes.iter().chain(&p.ensures).any(multiplies);
+                let (kani_path, stubs) =
+                    match wants.then(|| abstracted_path(plan, k, &grids, &step_args, abs)) {
+                        Some(Ok(path)) => {
+                            doc.push_str(ABSTRACTED_DOC);
+                            abstracted.push(p.name.clone());
+                            (Some(path), abs.borrow().stubs())
+                        }
+                        Some(Err(why)) => {
+                            doc.push_str(&format!(
+                                "\n\nUnder Kani this harness runs the generated step with exact \
+                             products: {why}."
+                            ));
+                            (None, Vec::new())
+                        }
+                        None => (None, Vec::new()),
+                    };
                 let direct = quote! {
                     // Assume: inputs in range, states in bounds, invariants hold.
                     if !(inputs_in_range(&inputs) && in_bounds(&pre) && invariants(&pre)) {
@@ -106,7 +96,7 @@ pub(super) fn harnesses(
                     #[doc = #doc_s]
                     #[test]
                     #[cfg_attr(kani, kani::proof)]
-                    #(#[cfg_attr(kani, kani::stub_verified(#stubs))])*
+                    #(#[cfg_attr(kani, kani::stub(#stubs))])*
                     fn #fname() {
                         /// Inputs inside their declared ranges, states inside their bounds,
                         /// free parameters on their grid (raw).
@@ -149,31 +139,12 @@ fn property(
 ) -> Result<(Vec<TokenStream>, Vec<TokenStream>), String> {
     let p = &plan.prog.properties[k];
     let names = param_names(p);
-    let env = Env {
-        plan,
-        grids,
-        params: &names,
-        pre: format_ident!("pre"),
-        post: format_ident!("post"),
-    };
-    let mut assumes = Vec::new();
-    for a in &p.assumes {
-        let text = show_cond(plan, &names, a);
-        let c = env
-            .cond(a)
-            .map_err(|why| format!("`{text}` cannot be evaluated exactly in i128 ({why})"))?;
-        assumes.push(quote! {
-            if !(#c) {
-                return;
-            }
-        });
-    }
+    let env = Env::step(plan, grids, &names, None);
+    let assumes = early_returns(&env, &names, &p.assumes)?;
     let mut ensures = Vec::new();
     for e in p.ensures.iter().flat_map(conjuncts) {
         let text = show_cond(plan, &names, e);
-        let c = env
-            .cond(e)
-            .map_err(|why| format!("`{text}` cannot be evaluated exactly in i128 ({why})"))?;
+        let c = exact_cond(&env, &names, e)?;
         let literal = format!("property `{}`: `{text}` is false after the step", p.name);
         let fmt = format!("{literal}; {{:?}} -> {{:?}}, {{:?}}");
         let holds = quote! { holds };
@@ -186,49 +157,89 @@ fn property(
     Ok((assumes, ensures))
 }
 
-/// What the harness doc says of a property checked on the step model.
-fn model_doc(name: &str, m: &model::Model) -> String {
-    format!(
-        "\n\nUnder Kani this property is checked on the exact-term model `{}` of the step \
-         (`model_matches_{name}` checks it against the generated step), with its {} products \
-         replaced by their contracts (`stub_verified`, each checked by its `contract_*` \
-         harness): products distributed and shared, each bounded by the McCormick planes and \
-         sign-split bounds of exact multiplication. Under `cargo test` it runs the generated \
-         step.",
-        m.func,
-        m.prods.len()
-    )
+/// The `bool` expression of `c`, or why it cannot be evaluated exactly.
+fn exact_cond(env: &Env, names: &[String], c: &PCond) -> Result<TokenStream, String> {
+    env.cond(c).map_err(|why| {
+        let text = show_cond(env.plan, names, c);
+        format!("`{text}` cannot be evaluated exactly in i128 ({why})")
+    })
 }
 
-/// The Kani path of a property checked on its model: the premises assumed on the model, a
-/// `cover!`, one `kani::assert` per conjunct of the `ensure`s.
-fn model_path(plan: &Plan, k: usize, m: &model::Model) -> TokenStream {
+/// An early `return` unless each condition holds (an `assume` under Kani and bolero).
+fn early_returns(env: &Env, names: &[String], conds: &[PCond]) -> Result<Vec<TokenStream>, String> {
+    conds
+        .iter()
+        .map(|a| {
+            let c = exact_cond(env, names, a)?;
+            Ok(quote! {
+                if !(#c) {
+                    return;
+                }
+            })
+        })
+        .collect()
+}
+
+/// What the harness doc says of a property whose products are abstracted under Kani.
+const ABSTRACTED_DOC: &str = "\n\nUnder Kani this harness runs the generated step with its \
+    products of two non-constant values stubbed by their abstractions (`abs_mul_*`), and \
+    evaluates the invariants and this property's own products through the same abstractions, \
+    rewritten exactly onto the step's (module doc): each abstraction asserts its factors' \
+    intervals and assumes only clauses that a `lemma_*` harness proves. Under `cargo test` \
+    it runs the generated step and multiplies exactly.";
+
+/// The Kani path of property `k` with abstracted products: the premises (inputs, states,
+/// invariants), the step, the `assume`s, a `cover!`, one `kani::assert` per conjunct of the
+/// `ensure`s.
+fn abstracted_path(
+    plan: &Plan,
+    k: usize,
+    grids: &[ParamGrid],
+    step_args: &TokenStream,
+    abs: &RefCell<Abstraction<'_>>,
+) -> Result<TokenStream, String> {
     let p = &plan.prog.properties[k];
     let names = param_names(p);
-    let func = &m.func;
-    let args = p.params.iter().map(|fp| format_ident!("param_{}", fp.name));
-    let cover = format!("the assumptions of property `{}` are satisfiable", p.name);
-    let asserts = p
-        .ensures
-        .iter()
-        .flat_map(conjuncts)
-        .enumerate()
-        .map(|(j, e)| {
-            let text = show_cond(plan, &names, e);
-            let literal = format!("property `{}`: `{text}` is false after the step", p.name);
-            quote! { kani::assert(goals[#j], #literal); }
+    let subst = crate::terms::param_state_pairs(plan, &p.assumes, &p.ensures)
+        .into_iter()
+        .filter_map(|(i, s)| {
+            let g = grids.get(i)?;
+            let (shift, dlo, dhi) = crate::terms::param_shift(plan, g, s, plan.bounds(s))?;
+            Some((i, (s, shift, dlo, dhi)))
+        })
+        .collect();
+    abs.borrow_mut().set_params(subst, &names);
+    let env = Env::step(plan, grids, &names, Some(abs));
+    let inv_env = Env::states(plan, "pre", Some(abs));
+    let mut invariants = Vec::new();
+    for inv in &plan.prog.invariants {
+        let c = inv_env
+            .cond(&inv.cond)
+            .map_err(|why| format!("invariant `{}`: {why}", inv.name))?;
+        invariants.push(quote! {
+            if !(#c) {
+                return;
+            }
         });
-    quote! {
-        // Assume: inputs in range, states in bounds; then, on the model, the invariants and
-        // the `assume`s.
+    }
+    let assumes = early_returns(&env, &names, &p.assumes)?;
+    let mut asserts = Vec::new();
+    for e in p.ensures.iter().flat_map(conjuncts) {
+        let text = show_cond(plan, &names, e);
+        let c = exact_cond(&env, &names, e)?;
+        let literal = format!("property `{}`: `{text}` is false after the step", p.name);
+        asserts.push(quote! { kani::assert(#c, #literal); });
+    }
+    let cover = format!("the assumptions of property `{}` are satisfiable", p.name);
+    Ok(quote! {
+        // Assume: inputs in range, states in bounds, invariants hold (products abstracted).
         if !(inputs_in_range(&inputs) && in_bounds(&pre)) {
             return;
         }
-        let (_, premises, goals) = #func(&inputs, &pre, #(#args),*);
-        if !premises {
-            return;
-        }
+        #(#invariants)*
+        let (post, outputs) = step(#step_args);
+        #(#assumes)*
         kani::cover!(true, #cover);
         #(#asserts)*
-    }
+    })
 }
