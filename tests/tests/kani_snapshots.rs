@@ -4,6 +4,14 @@
 
 use qloop_tests::all_specs;
 
+/// The clauses of an `ensure`: its conjuncts.
+fn count_clauses(c: &qloop::ir::PCond) -> usize {
+    match c {
+        qloop::ir::PCond::And(a, b) => count_clauses(a) + count_clauses(b),
+        _ => 1,
+    }
+}
+
 fn compile(src: &str) -> qloop::Plan {
     qloop::compile_str(src, &qloop::Target::default()).unwrap_or_else(|e| panic!("{e}"))
 }
@@ -28,12 +36,15 @@ fn harness_snapshots() {
                 .iter()
                 .map(|i| format!("invariant_{}", i.name)),
         );
-        harnesses.extend(
-            plan.prog
-                .properties
-                .iter()
-                .map(|p| format!("property_{}", p.name)),
-        );
+        // One harness per property, or per clause of its `ensure`s where there are several.
+        for p in &plan.prog.properties {
+            let clauses: usize = p.ensures.iter().map(count_clauses).sum();
+            if clauses == 1 {
+                harnesses.push(format!("property_{}", p.name));
+            } else {
+                harnesses.extend((1..=clauses).map(|j| format!("property_{}_clause_{j}", p.name)));
+            }
+        }
         for h in &harnesses {
             let at = text
                 .find(&format!("fn {h}()"))

@@ -479,6 +479,7 @@ impl<'p> Abstraction<'p> {
                 out.extend(quote! {
                     #[doc = #doc]
                     #[cfg(kani)]
+                    #[kani::solver(kissat)]
                     #[kani::proof]
                     fn #name() {
                         let a: #t = kani::any();

@@ -57,16 +57,33 @@ pub(super) fn module_doc(
         if !pr.assumes.is_empty() {
             line.push_str(&format!("if {} then ", show(&pr.assumes)));
         }
-        line.push_str(&format!("{}.\n", show(&pr.ensures)));
+        line.push_str(&show(&pr.ensures));
+        let clauses: usize = pr
+            .ensures
+            .iter()
+            .map(|e| super::show::conjuncts(e).len())
+            .sum();
+        if clauses > 1 {
+            line.push_str(&format!(
+                "; one harness per clause, `property_{}_clause_1` to `_clause_{clauses}`",
+                pr.name
+            ));
+        }
+        line.push_str(".\n");
         d.push_str(&line);
     }
     d.push_str(
         "\nAssumptions are early `return`s: under Kani a path that returns before an assertion \
          cannot violate it, so an early return restricts the proof exactly like `kani::assume`; \
          under `cargo test` the case is skipped.\n\n\
+         Every harness asks for Kissat (`kani::solver(kissat)`, which Kani bundles): over this \
+         crate's harnesses it decided the slowest ones faster than the default CaDiCaL \
+         (qloop's BENCHMARKS.md, \"Kani\").\n\n\
          A failed assertion names its property (or invariant, or state) and the clause: under \
          Kani with a literal message, one `kani::assert` per conjunct of an `ensure`; under \
-         `cargo test` with the values as well.\n\n\
+         `cargo test` with the values as well. A property whose `ensure`s have several clauses \
+         has one harness per clause: CBMC decides a harness's assertions in one SAT problem, \
+         and each clause alone is smaller.\n\n\
          Conditions are evaluated exactly in `i128`: a signal is `raw · 2^-frac`, binary points \
          are aligned by left shifts, products add fraction bits, constants are their exact \
          binary values; every intermediate is bounded by 2^126 at generation time.\n\n\

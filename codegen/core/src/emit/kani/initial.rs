@@ -40,6 +40,7 @@ pub(super) fn harness(plan: &Plan, sigs: &Sigs, invs: &Invariants) -> TokenStrea
         #[doc = #init_doc_s]
         #[test]
         #[cfg_attr(kani, kani::proof)]
+        #[cfg_attr(kani, kani::solver(kissat))]
         fn initial() {
             let s = Controller::new().states();
             let pre = states_raw(#(s.#st_names.to_bits()),*);

@@ -117,6 +117,7 @@ pub(super) fn harnesses(
             #[doc = #doc_s]
             #[test]
             #[cfg_attr(kani, kani::proof)]
+        #[cfg_attr(kani, kani::solver(kissat))]
             fn #harness() {
                 bolero::check!()
                     .with_type::<StepCase>()

@@ -47,6 +47,7 @@ pub(super) fn harness(plan: &Plan, sigs: &Sigs) -> TokenStream {
         #[doc = #ranges_doc_s]
         #[test]
         #[cfg_attr(kani, kani::proof)]
+        #[cfg_attr(kani, kani::solver(kissat))]
         fn ranges_and_overflow() {
             bolero::check!()
                 .with_type::<StepCase>()

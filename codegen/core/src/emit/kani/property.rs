@@ -33,69 +33,106 @@ pub(super) fn harnesses(
     let (input_fields_ranged, state_fields) = (sigs.input_fields_ranged(), sigs.state_fields());
     let mut prop_harnesses = Vec::new();
     for (k, p) in prog.properties.iter().enumerate() {
-        let harness = format!("property_{}", p.name);
         if let Some(why) = &invs.blocked {
-            skipped.push((harness, why.clone()));
+            skipped.push((format!("property_{}", p.name), why.clone()));
             continue;
         }
         let grids = param_grids(plan, k);
-        match property(plan, k, &grids) {
-            Ok(body) => {
-                let fname = format_ident!("{harness}");
-                let mut doc = doc_lines(&p.docs);
-                doc.push_str(&property_doc(plan, k, &grids));
-                let (param_fields, params) = (param_fields(p, &grids), param_lets(p));
-                let report = format!("{harness}: {{}} cases satisfied the assumptions");
-                let cover = format!("the assumptions of property `{}` are satisfiable", p.name);
-                let (assumes, ensures) = body;
-                let wants = p.assumes.iter().chain(&p.ensures).any(multiplies);
-                let (kani_path, stubs) =
-                    match wants.then(|| abstracted_path(plan, k, &grids, &step_args, abs)) {
-                        Some(Ok(path)) => {
-                            doc.push_str(ABSTRACTED_DOC);
+        let (assumes, all_ensures) = match property(plan, k, &grids) {
+            Ok(body) => body,
+            Err(why) => {
+                skipped.push((format!("property_{}", p.name), why));
+                continue;
+            }
+        };
+        let names = param_names(p);
+        let clauses: Vec<&PCond> = p.ensures.iter().flat_map(conjuncts).collect();
+        // One harness per clause of the `ensure`s where there are several, so that each is
+        // decided (and timed) on its own: CBMC checks a harness's assertions in one SAT
+        // problem, and the two clauses of the grinding `pi_law_eq8` together do not finish
+        // in 120 s where each alone does.
+        let parts: Vec<Option<usize>> = if clauses.len() > 1 {
+            (0..clauses.len()).map(Some).collect()
+        } else {
+            vec![None]
+        };
+        for part in parts {
+            let harness = match part {
+                None => format!("property_{}", p.name),
+                Some(j) => format!("property_{}_clause_{}", p.name, j + 1),
+            };
+            let fname = format_ident!("{harness}");
+            let mut doc = doc_lines(&p.docs);
+            doc.push_str(&property_doc(plan, k, &grids));
+            if let Some(j) = part {
+                doc.push_str(&format!(
+                    "\n\nThis harness checks clause {} of {}, `{}`; each clause has its own \
+                         harness, so that Kani decides and times each on its own.",
+                    j + 1,
+                    clauses.len(),
+                    show_cond(plan, &names, clauses[j])
+                ));
+            }
+            let (param_fields, params) = (param_fields(p, &grids), param_lets(p));
+            let report = format!("{harness}: {{}} cases satisfied the assumptions");
+            let cover = format!("the assumptions of property `{}` are satisfiable", p.name);
+            let ensures: Vec<&TokenStream> = all_ensures
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| part.is_none_or(|only| only == *j))
+                .map(|(_, e)| e)
+                .collect();
+            let wants = p.assumes.iter().chain(&p.ensures).any(multiplies);
+            let (kani_path, stubs) =
+                match wants.then(|| abstracted_path(plan, k, &grids, &step_args, abs, part)) {
+                    Some(Ok(path)) => {
+                        doc.push_str(ABSTRACTED_DOC);
+                        if !abstracted.contains(&p.name) {
                             abstracted.push(p.name.clone());
-                            (Some(path), abs.borrow().stubs())
                         }
-                        Some(Err(why)) => {
-                            doc.push_str(&format!(
-                                "\n\nUnder Kani this harness runs the generated step with exact \
+                        (Some(path), abs.borrow().stubs())
+                    }
+                    Some(Err(why)) => {
+                        doc.push_str(&format!(
+                            "\n\nUnder Kani this harness runs the generated step with exact \
                              products: {why}."
-                            ));
-                            (None, Vec::new())
-                        }
-                        None => (None, Vec::new()),
-                    };
-                let direct = quote! {
-                    // Assume: inputs in range, states in bounds, invariants hold.
-                    if !(inputs_in_range(&inputs) && in_bounds(&pre) && invariants(&pre)) {
-                        return;
+                        ));
+                        (None, Vec::new())
                     }
-                    let (post, outputs) = step(#step_args);
-                    #(#assumes)*
-                    #[cfg(not(kani))]
-                    held.fetch_add(1, ::core::sync::atomic::Ordering::Relaxed);
+                    None => (None, Vec::new()),
+                };
+            let direct = quote! {
+                // Assume: inputs in range, states in bounds, invariants hold.
+                if !(inputs_in_range(&inputs) && in_bounds(&pre) && invariants(&pre)) {
+                    return;
+                }
+                let (post, outputs) = step(#step_args);
+                #(#assumes)*
+                #[cfg(not(kani))]
+                held.fetch_add(1, ::core::sync::atomic::Ordering::Relaxed);
+                #[cfg(kani)]
+                kani::cover!(true, #cover);
+                #(#ensures)*
+            };
+            let direct = if kani_path.is_some() {
+                quote! { #[cfg(not(kani))] { #direct } }
+            } else {
+                direct
+            };
+            let kani_path = kani_path.map(|path| {
+                quote! {
                     #[cfg(kani)]
-                    kani::cover!(true, #cover);
-                    #(#ensures)*
-                };
-                let direct = if kani_path.is_some() {
-                    quote! { #[cfg(not(kani))] { #direct } }
-                } else {
-                    direct
-                };
-                let kani_path = kani_path.map(|path| {
-                    quote! {
-                        #[cfg(kani)]
-                        {
-                            #path
-                        }
+                    {
+                        #path
                     }
-                });
-                let doc_s = spaced(&doc);
-                prop_harnesses.push(quote! {
+                }
+            });
+            let doc_s = spaced(&doc);
+            prop_harnesses.push(quote! {
                     #[doc = #doc_s]
                     #[test]
                     #[cfg_attr(kani, kani::proof)]
+            #[cfg_attr(kani, kani::solver(kissat))]
                     #(#[cfg_attr(kani, kani::stub(#stubs))])*
                     fn #fname() {
                         /// Inputs inside their declared ranges, states inside their bounds,
@@ -124,8 +161,6 @@ pub(super) fn harnesses(
                         }
                     }
                 });
-            }
-            Err(why) => skipped.push((harness, why)),
         }
     }
     prop_harnesses
@@ -197,6 +232,7 @@ fn abstracted_path(
     grids: &[ParamGrid],
     step_args: &TokenStream,
     abs: &RefCell<Abstraction<'_>>,
+    only: Option<usize>,
 ) -> Result<TokenStream, String> {
     let p = &plan.prog.properties[k];
     let names = param_names(p);
@@ -224,7 +260,10 @@ fn abstracted_path(
     }
     let assumes = early_returns(&env, &names, &p.assumes)?;
     let mut asserts = Vec::new();
-    for e in p.ensures.iter().flat_map(conjuncts) {
+    for (j, e) in p.ensures.iter().flat_map(conjuncts).enumerate() {
+        if only.is_some_and(|o| o != j) {
+            continue;
+        }
         let text = show_cond(plan, &names, e);
         let c = exact_cond(&env, &names, e)?;
         let literal = format!("property `{}`: `{text}` is false after the step", p.name);
