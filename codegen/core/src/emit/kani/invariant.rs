@@ -113,25 +113,28 @@ pub(super) fn harnesses(
             quote! { pre, post },
         );
         let doc_s = spaced(&doc);
+        let cases = super::for_each_case(
+            &format_ident!("StepCase"),
+            quote! {
+                |c: &StepCase| {
+                    let pre = #pre_from_case;
+                    // Assume: states inside their bounds, invariants hold.
+                    if !(in_bounds(&pre) && invariants(&pre)) {
+                        return;
+                    }
+                    let (post, _) = step(#step_args);
+                    let holds = #f(&post);
+                    #check
+                }
+            },
+        );
         out.push(quote! {
             #[doc = #doc_s]
             #[test]
             #[cfg_attr(kani, kani::proof)]
         #[cfg_attr(kani, kani::solver(kissat))]
             fn #harness() {
-                bolero::check!()
-                    .with_type::<StepCase>()
-                    .with_iterations(CASES)
-                    .for_each(|c: &StepCase| {
-                        let pre = #pre_from_case;
-                        // Assume: states inside their bounds, invariants hold.
-                        if !(in_bounds(&pre) && invariants(&pre)) {
-                            return;
-                        }
-                        let (post, _) = step(#step_args);
-                        let holds = #f(&post);
-                        #check
-                    });
+                #cases
             }
         });
     }

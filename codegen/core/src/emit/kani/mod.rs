@@ -1,10 +1,11 @@
 //! Emits proof harnesses for the fixed-point module: Kani proofs that also run as randomized
 //! property tests.
 //!
-//! The harnesses use [bolero](https://docs.rs/bolero): under `cargo kani --tests` each
-//! `bolero::check!()` draws its values with `kani::any()` (and `kani::assume` for the
-//! generators' ranges), so a harness is a proof over every value; under `cargo test` it runs
-//! [`CASES`] random cases. They call the generated controller itself (`set_states`, `step`,
+//! Each harness body is a closure over one case: under `cargo kani --tests` it runs on one
+//! symbolic case, `kani::any()` (any bits; the body's early returns restrict them), so a
+//! harness is a proof over every value; under `cargo test` [bolero](https://docs.rs/bolero)
+//! runs it on [`CASES`] random cases within the generator ranges. Kani does not go through
+//! bolero's driver, whose panic paths it reported as unsupported constructs. They call the generated controller itself (`set_states`, `step`,
 //! `states`), so what they check is the code that ships, and they mirror the SMT obligations of
 //! the `qloop` crate's `prove::obligations`:
 //!
@@ -63,6 +64,23 @@ pub const CASES: usize = 100_000;
 
 /// Largest magnitude, as a power of two, an exactly evaluated intermediate may reach.
 pub const LIMIT_BITS: u32 = 126;
+
+/// Runs `body` (a closure over `&ty`) on every case: under Kani on one symbolic case
+/// (`kani::any()`, any bits: the body's early returns restrict it), under `cargo test` on
+/// [`CASES`] random cases drawn by bolero within the generator ranges. Kani does not go through
+/// bolero's driver, whose panic paths Kani reports as unsupported constructs.
+fn for_each_case(ty: &proc_macro2::Ident, body: TokenStream) -> TokenStream {
+    quote! {
+        let body = #body;
+        #[cfg(kani)]
+        body(&kani::any::<#ty>());
+        #[cfg(not(kani))]
+        bolero::check!()
+            .with_type::<#ty>()
+            .with_iterations(CASES)
+            .for_each(body);
+    }
+}
 
 /// Harnesses not emitted, with the reason: `(harness name, why)`.
 type Skipped = Vec<(String, String)>;

@@ -7,7 +7,7 @@ use super::sigs::Sigs;
 use crate::lower::Plan;
 use crate::text::g;
 use proc_macro2::TokenStream;
-use quote::quote;
+use quote::{format_ident, quote};
 
 /// The harness.
 pub(super) fn harness(plan: &Plan, sigs: &Sigs) -> TokenStream {
@@ -43,24 +43,27 @@ pub(super) fn harness(plan: &Plan, sigs: &Sigs) -> TokenStream {
         )
     );
     let ranges_doc_s = spaced(&ranges_doc);
+    let cases = super::for_each_case(
+        &format_ident!("StepCase"),
+        quote! {
+            |c: &StepCase| {
+                let pre = #pre_from_case;
+                // Assume: states inside their bounds.
+                if !in_bounds(&pre) {
+                    return;
+                }
+                let (post, _) = step(#step_args);
+                assert_in_bounds(&post, "after a step");
+            }
+        },
+    );
     quote! {
         #[doc = #ranges_doc_s]
         #[test]
         #[cfg_attr(kani, kani::proof)]
         #[cfg_attr(kani, kani::solver(kissat))]
         fn ranges_and_overflow() {
-            bolero::check!()
-                .with_type::<StepCase>()
-                .with_iterations(CASES)
-                .for_each(|c: &StepCase| {
-                    let pre = #pre_from_case;
-                    // Assume: states inside their bounds.
-                    if !in_bounds(&pre) {
-                        return;
-                    }
-                    let (post, _) = step(#step_args);
-                    assert_in_bounds(&post, "after a step");
-                });
+            #cases
         }
     }
 }

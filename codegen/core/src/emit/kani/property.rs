@@ -6,7 +6,9 @@ use super::abstraction::{multiplies, Abstraction};
 use super::docs::{param_names, property_doc};
 use super::exact::Env;
 use super::invariant::Invariants;
-use super::show::{check, conjuncts, doc_lines, param_fields, param_lets, show_cond, spaced};
+use super::show::{
+    check, conjuncts, doc_lines, param_fields, param_lets, param_ranges, show_cond, spaced,
+};
 use super::sigs::Sigs;
 use super::Skipped;
 use crate::ir::PCond;
@@ -74,6 +76,18 @@ pub(super) fn harnesses(
                 ));
             }
             let (param_fields, params) = (param_fields(p, &grids), param_lets(p));
+            let param_ranges = param_ranges(p, &grids);
+            // Kani draws any bits: free parameters on their grid (bolero draws them there).
+            let param_check = if p.params.is_empty() {
+                TokenStream::new()
+            } else {
+                quote! {
+                    #[cfg(kani)]
+                    if !(#param_ranges) {
+                        return;
+                    }
+                }
+            };
             let report = format!("{harness}: {{}} cases satisfied the assumptions");
             let cover = format!("the assumptions of property `{}` are satisfiable", p.name);
             let ensures: Vec<&TokenStream> = all_ensures
@@ -128,6 +142,19 @@ pub(super) fn harnesses(
                 }
             });
             let doc_s = spaced(&doc);
+            let cases = super::for_each_case(
+                &format_ident!("Case"),
+                quote! {
+                    |c: &Case| {
+                        let inputs = inputs_raw(#(c.#in_names),*);
+                        let pre = #pre_from_case;
+                        #(#params)*
+                        #param_check
+                        #kani_path
+                        #direct
+                    }
+                },
+            );
             prop_harnesses.push(quote! {
                     #[doc = #doc_s]
                     #[test]
@@ -138,22 +165,14 @@ pub(super) fn harnesses(
                         /// Inputs inside their declared ranges, states inside their bounds,
                         /// free parameters on their grid (raw).
                         #[derive(Clone, Copy, Debug, bolero::TypeGenerator)]
+                        #[cfg_attr(kani, derive(kani::Arbitrary))]
                         struct Case { #(#input_fields_ranged)* #(#state_fields)* #(#param_fields)* }
 
                         // Cases past the assumptions, counted under `cargo test` (Kani's
                         // `cover!` shows the same; no atomics on its path).
                         #[cfg(not(kani))]
                         let held = ::core::sync::atomic::AtomicUsize::new(0);
-                        bolero::check!()
-                            .with_type::<Case>()
-                            .with_iterations(CASES)
-                            .for_each(|c: &Case| {
-                                let inputs = inputs_raw(#(c.#in_names),*);
-                                let pre = #pre_from_case;
-                                #(#params)*
-                                #kani_path
-                                #direct
-                            });
+                        #cases
                         #[cfg(not(kani))]
                         {
                             let held = held.into_inner();

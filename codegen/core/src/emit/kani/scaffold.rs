@@ -69,6 +69,7 @@ pub(super) fn items(sigs: &Sigs, invs: &Invariants) -> TokenStream {
 
         /// One step's raw data: any input bits, states inside their bounds.
         #[derive(Clone, Copy, Debug, bolero::TypeGenerator)]
+        #[cfg_attr(kani, derive(kani::Arbitrary))]
         struct StepCase { #(#input_fields_any)* #(#state_fields)* }
 
         /// Widens raw states.

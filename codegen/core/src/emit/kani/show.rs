@@ -240,6 +240,26 @@ pub(super) fn param_fields(p: &Property, grids: &[ParamGrid]) -> Vec<TokenStream
         .collect()
 }
 
+/// Whether every free parameter of a property is on its grid: the generator ranges of
+/// [`param_fields`], checked where Kani draws any bits (`true` for none).
+pub(super) fn param_ranges(p: &Property, grids: &[ParamGrid]) -> TokenStream {
+    let parts: Vec<TokenStream> = p
+        .params
+        .iter()
+        .zip(grids)
+        .map(|(fp, g)| {
+            let v = format_ident!("param_{}", fp.name);
+            let (lo, hi) = (int(g.lo), int(g.hi));
+            quote! { (#lo..=#hi).contains(&#v) }
+        })
+        .collect();
+    if parts.is_empty() {
+        quote! { true }
+    } else {
+        quote! { #(#parts)&&* }
+    }
+}
+
 /// `let param_<name> = i128::from(c.<name>);` for each free parameter of a property.
 pub(super) fn param_lets(p: &Property) -> Vec<TokenStream> {
     p.params
