@@ -51,25 +51,32 @@ pub(super) fn dist(a: f64, b: f64) -> f64 {
     }
 }
 
+/// `v` as the f64s just below and just above it (equal where `v` has at most 53 significant
+/// bits).
+fn enclose(v: u128) -> (f64, f64) {
+    let f = v as f64;
+    let back = f as u128;
+    (
+        if back > v { f.next_down() } else { f },
+        if back < v { f.next_up() } else { f },
+    )
+}
+
 /// `|raw| · 2^-frac` as an f64 no smaller than the exact value (an `i128` magnitude with more
 /// than 53 significant bits rounds up, not to nearest).
 pub(super) fn magnitude(raw: i128, frac: i32) -> f64 {
-    let v = raw.unsigned_abs();
-    let f = v as f64;
-    let f = if (f as u128) < v { f.next_up() } else { f };
-    f * crate::qformat::pow2(-frac)
+    enclose(raw.unsigned_abs()).1 * crate::qformat::pow2(-frac)
 }
 
 /// `raw · 2^-frac` rounded down (`up = false`) or up.
 pub(super) fn value(raw: i128, frac: i32, up: bool) -> f64 {
-    let m = magnitude(raw, frac);
-    let exact = (raw.unsigned_abs() as f64) as u128 == raw.unsigned_abs();
-    let m_down = if exact { m } else { m.next_down() };
+    let (down_m, up_m) = enclose(raw.unsigned_abs());
+    let scale = crate::qformat::pow2(-frac);
     match (raw < 0, up) {
-        (false, true) => m,
-        (false, false) => m_down,
-        (true, true) => -m_down,
-        (true, false) => -m,
+        (false, true) => up_m * scale,
+        (false, false) => down_m * scale,
+        (true, true) => -down_m * scale,
+        (true, false) => -up_m * scale,
     }
 }
 

@@ -111,12 +111,26 @@ struct Product {
     clauses: Clauses,
     /// What it multiplies, for docs and messages.
     what: String,
-    /// Whether a property harness uses it (step products are stubbed in every abstracted
-    /// harness either way).
-    used: bool,
 }
 
 impl Product {
+    /// The function it abstracts: `qloop_mul_<n>` of the step or `exact_prod_<n>`.
+    fn label(&self) -> String {
+        match self.step {
+            Some(v) => format!("qloop_mul_{}", v.0),
+            None => format!("exact_prod_{}", self.n),
+        }
+    }
+
+    /// The tag of its abstraction (`abs_<tag>`) and lemmas (`lemma_<tag>_*`): `mul_<n>` or
+    /// `prod_<n>`.
+    fn tag(&self) -> String {
+        match self.step {
+            Some(v) => format!("mul_{}", v.0),
+            None => format!("prod_{}", self.n),
+        }
+    }
+
     /// `[xl, xu] × [yl, yu]`.
     fn factor_box(&self) -> String {
         format!(
@@ -152,8 +166,6 @@ pub(super) struct Abstraction<'p> {
     subst: BTreeMap<usize, (SigId, u32, i128, i128)>,
     /// The current property's parameter names.
     param_names: Vec<String>,
-    /// The name of the pre-step states in the harness.
-    pre: Ident,
 }
 
 impl<'p> Abstraction<'p> {
@@ -181,7 +193,6 @@ impl<'p> Abstraction<'p> {
                         factor_name(plan, f.a, a),
                         factor_name(plan, f.b, b)
                     ),
-                    used: false,
                 }
             })
             .collect();
@@ -192,7 +203,6 @@ impl<'p> Abstraction<'p> {
             products,
             subst: BTreeMap::new(),
             param_names: Vec::new(),
-            pre: format_ident!("pre"),
         }
     }
 
@@ -211,10 +221,12 @@ impl<'p> Abstraction<'p> {
         let ctl = &self.ctl;
         self.products
             .iter()
-            .filter_map(|p| p.step)
-            .map(|v| {
-                let f = crate::emit::rust::mul_fn_name(v);
-                let a = format_ident!("abs_mul_{}", v.0);
+            .filter(|p| p.step.is_some())
+            .map(|p| {
+                let (f, a) = (
+                    format_ident!("{}", p.label()),
+                    format_ident!("abs_{}", p.tag()),
+                );
                 quote! { super::#ctl::#f, #a }
             })
             .collect()
@@ -235,7 +247,7 @@ impl<'p> Abstraction<'p> {
             let (pt, qt) = (&p.t, &q.t);
             match pa {
                 Atom::Post(x) if self.plan.prog.sig(x).kind == SigKind::State => {
-                    let pre = &self.pre;
+                    let pre = format_ident!("pre");
                     let xn = format_ident!("{}", self.plan.prog.sig(x).name);
                     let pre_x = quote! { #pre.#xn };
                     let Some(base) = self.base(x, y, &pre_x, qt) else {
@@ -269,7 +281,7 @@ impl<'p> Abstraction<'p> {
                     let Some(&(s, shift, dlo, dhi)) = self.subst.get(&i) else {
                         continue;
                     };
-                    let pre = &self.pre;
+                    let pre = format_ident!("pre");
                     let sn = format_ident!("{}", self.plan.prog.sig(s).name);
                     let pre_s = quote! { #pre.#sn };
                     let Some(base) = self.base(s, y, &pre_s, qt) else {
@@ -319,8 +331,7 @@ impl<'p> Abstraction<'p> {
         };
         let p = &mut self.products[i];
         p.clauses = Clauses::Full;
-        p.used = true;
-        let f = format_ident!("abs_mul_{}", self.step[i].val.0);
+        let f = format_ident!("abs_{}", p.tag());
         let t = ty_tokens(p.ty);
         Some(quote! { i128::from(#f(#t1 as #t, #t2 as #t)) })
     }
@@ -359,14 +370,13 @@ impl<'p> Abstraction<'p> {
                     y,
                     clauses,
                     what,
-                    used: true,
                 });
                 self.products.len() - 1
             }
         };
         let p = &mut self.products[i];
         p.clauses = p.clauses.max(clauses);
-        let f = format_ident!("abs_prod_{}", p.n);
+        let f = format_ident!("abs_{}", p.tag());
         let t = ty_tokens(p.ty);
         Ok(quote! { i128::from(#f(#tx as #t, #ty as #t)) })
     }
@@ -378,22 +388,16 @@ impl<'p> Abstraction<'p> {
         let mut out = TokenStream::new();
         for p in &self.products {
             let t = ty_tokens(p.ty);
-            let (abs, memo, real, label) = match p.step {
-                Some(v) => {
-                    let f = crate::emit::rust::mul_fn_name(v);
-                    (
-                        format_ident!("abs_mul_{}", v.0),
-                        format_ident!("MEMO_MUL_{}", v.0),
-                        quote! { super::#ctl::#f },
-                        format!("qloop_mul_{}", v.0),
-                    )
-                }
+            let (label, tag) = (p.label(), p.tag());
+            let abs = format_ident!("abs_{tag}");
+            let memo = format_ident!("MEMO_{}", tag.to_uppercase());
+            let f = format_ident!("{label}");
+            let real = match p.step {
+                Some(_) => quote! { super::#ctl::#f },
                 None => {
-                    let f = format_ident!("exact_prod_{}", p.n);
                     let d = spaced(&format!(
-                        "Harness-only product {}: exact multiplication, abstracted by \
-                         `abs_prod_{}`.",
-                        p.what, p.n
+                        "Harness-only product {}: exact multiplication, abstracted by `{abs}`.",
+                        p.what
                     ));
                     out.extend(quote! {
                         #[doc = #d]
@@ -402,12 +406,7 @@ impl<'p> Abstraction<'p> {
                             a * b
                         }
                     });
-                    (
-                        format_ident!("abs_prod_{}", p.n),
-                        format_ident!("MEMO_PROD_{}", p.n),
-                        quote! { #f },
-                        format!("exact_prod_{}", p.n),
-                    )
+                    quote! { #f }
                 }
             };
             let w = wide(p);
@@ -425,15 +424,14 @@ impl<'p> Abstraction<'p> {
                 "{label} ({}): factor 2 outside [{}, {}] (raw), the interval its clauses hold on",
                 p.what, p.y.0, p.y.1
             );
-            let doc =
-                spaced(&format!(
+            let doc = spaced(&format!(
                 "Abstraction of `{label}` ({}): asserts the factors inside {} (raw) and returns \
                  a value satisfying the {}, each proved by a `lemma_{}_*` harness; equal \
                  factors give the same value (the last call is remembered).",
                 p.what,
                 p.factor_box(),
                 p.clauses_text(),
-                label.trim_start_matches("qloop_").trim_start_matches("exact_")
+                tag
             ));
             out.extend(quote! {
                 #[cfg(kani)]
@@ -458,13 +456,7 @@ impl<'p> Abstraction<'p> {
                 }
             });
             for c in clauses {
-                let name = format_ident!(
-                    "lemma_{}_{}",
-                    label
-                        .trim_start_matches("qloop_")
-                        .trim_start_matches("exact_"),
-                    clause_name(c)
-                );
+                let name = format_ident!("lemma_{}_{}", tag, clause_name(c));
                 let e = clause(c, p);
                 let text = clause_text(c, p);
                 let msg = format!("{label} ({}): {text} fails", p.what);
@@ -472,9 +464,7 @@ impl<'p> Abstraction<'p> {
                     "Lemma: for factors in {} (raw), `{label}` satisfies {text} (assumed by \
                      `abs_{}`).",
                     p.factor_box(),
-                    label
-                        .trim_start_matches("qloop_")
-                        .trim_start_matches("exact_")
+                    tag
                 ));
                 out.extend(quote! {
                     #[doc = #doc]
@@ -500,10 +490,7 @@ impl<'p> Abstraction<'p> {
         self.products
             .iter()
             .map(|p| {
-                let name = match p.step {
-                    Some(v) => format!("`qloop_mul_{}`", v.0),
-                    None => format!("`exact_prod_{}`", p.n),
-                };
+                let name = format!("`{}`", p.label());
                 format!(
                     "{name}, {}: {} (raw), {} ({} lemma harnesses)",
                     p.what,
