@@ -16,7 +16,7 @@ pub mod prove;
 pub mod report;
 pub mod targets;
 
-pub use qloop_core::{check, diag, interp, ir, lang, lower, prop_eval, qformat, text};
+pub use qloop_core::{check, diag, interp, ir, lang, lower, prop_eval, qformat, text, units};
 pub use qloop_core::{
     compile_str, compile_tokens, expand_macro, gen_kani, gen_reference, gen_rust, kani_tokens,
     reference_tokens, rust_tokens, Diag, Plan, Target, GEN_HEADER,

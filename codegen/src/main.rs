@@ -68,7 +68,15 @@ fn run(cli: Cli) -> CliResult {
             out,
             substeps,
             target,
-        } => cli::sim::run(&spec, &target, &plant, &scenario, &out, substeps),
+            nominal_feed,
+            check,
+        } => cli::sim::run(
+            &spec,
+            &target,
+            (&plant, &scenario),
+            &out,
+            (substeps, nominal_feed, check),
+        ),
         Cmd::Sweep {
             spec,
             plant,
@@ -128,5 +136,6 @@ fn run(cli: Cli) -> CliResult {
             grace: grace_secs,
         }),
         Cmd::Targets => cli::targets::run(),
+        Cmd::Plants { plant } => cli::plants::run(plant.as_deref()),
     }
 }

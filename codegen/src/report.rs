@@ -49,6 +49,19 @@ pub fn op_counts(plan: &Plan) -> OpCounts {
     c
 }
 
+/// Relative quantisation error of a constant above which `qloop check` warns.
+pub const QUANTISATION_WARN: f64 = 0.01;
+
+/// How a constant's applied value differs from the written one: `exact`, or the relative
+/// difference in percent.
+fn quantisation(written: f64, applied: f64) -> String {
+    if applied == written {
+        "exact".into()
+    } else {
+        format!("{:+.2e} %", 100.0 * (applied - written) / written)
+    }
+}
+
 /// The human-readable check report.
 pub fn check_report(plan: &Plan, file: &str) -> String {
     let p = &plan.prog;
@@ -138,12 +151,38 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
                 m.adders, m.shifts, m.costs.0, m.costs.1
             )
         };
-        let _ = writeln!(o, "  x * {what} = x * {}·2^{}: {how}", m.m, -m.k);
+        let applied = m.m as f64 * 2f64.powi(-m.k);
+        let _ = writeln!(
+            o,
+            "  x * {what} = x * {}·2^{} ({}): {how}",
+            m.m,
+            -m.k,
+            quantisation(m.constant, applied)
+        );
+    }
+    for m in &plan.mults {
+        let applied = m.m as f64 * 2f64.powi(-m.k);
+        let rel = (applied - m.constant) / m.constant;
+        if rel.abs() > QUANTISATION_WARN {
+            let what = m.name.clone().unwrap_or_else(|| g(m.constant));
+            let _ = writeln!(
+                o,
+                "warning: {what} = {} is applied as {} ({:+.2} %, above {} %): qloop quantises a \
+                 constant to within half an LSB of the value it multiplies, over that value's \
+                 range; give that value more fraction bits (`#[lsb(..)]` or `#[q(..)]` on the \
+                 input, state or `let`) to apply the constant more exactly",
+                g(m.constant),
+                g(applied),
+                100.0 * rel,
+                100.0 * QUANTISATION_WARN
+            );
+        }
     }
     o.push_str(&comparisons(plan));
     let c = op_counts(plan);
     let _ = writeln!(o);
     let _ = writeln!(o, "Working widths of step's values: {}", width_census(plan));
+    o.push_str(&wide_values(plan));
     let _ = writeln!(
         o,
         "step: {} add/sub, {} shifts, {} multiplies, {} compare/select, {} divisions",
@@ -188,6 +227,55 @@ fn comparisons(plan: &Plan) -> String {
 }
 
 /// How many values of each integer width `step` computes, e.g. `i32 ×14, i64 ×3`.
+/// Whether 64-bit arithmetic is costly on the target: a word under 32 bits (every i64 add is
+/// eight AVR instructions), or no 32×32→64 multiply (an i64 product is a library call).
+pub fn i64_is_costly(t: &Target) -> bool {
+    t.word_bits < 64
+        && (t.word_bits < 32
+            || !matches!(t.multiplier.kind, MulKind::M32x32To64 | MulKind::M64x64To64))
+}
+
+/// A warning for each spec line whose values need 64-bit words on a target where they are
+/// costly ([`i64_is_costly`]), naming the `let`s and formats, with what to do.
+fn wide_values(plan: &Plan) -> String {
+    if !i64_is_costly(&plan.target) {
+        return String::new();
+    }
+    let mut lines: std::collections::BTreeMap<usize, (usize, Vec<String>)> = Default::default();
+    for v in plan.vals.iter().filter(|v| !v.boolean && v.ty.bits > 32) {
+        let e = lines.entry(v.line).or_default();
+        e.0 += 1;
+        if let Some(n) = &v.name {
+            let f = format!("`{n}` Q({}, {})", v.ty, v.frac);
+            if !e.1.contains(&f) {
+                e.1.push(f);
+            }
+        }
+    }
+    let mut o = String::new();
+    for (line, (n, names)) in &lines {
+        let at = if *line == 0 {
+            "a value".to_string()
+        } else {
+            format!("line {line}")
+        };
+        let _ = writeln!(
+            o,
+            "warning: {at} needs 64-bit arithmetic ({n} value(s){}), costly on {}: pin a \
+             narrower format on its `let` (`#[q(i32, F)]` or a coarser `#[lsb(..)]`), claim a \
+             tighter range (`#[range(LO, HI)]`), or apply a small constant factor first so that \
+             the product keeps fewer fraction bits",
+            if names.is_empty() {
+                String::new()
+            } else {
+                format!(": {}", names.join(", "))
+            },
+            plan.target.name
+        );
+    }
+    o
+}
+
 fn width_census(plan: &Plan) -> String {
     let mut n = std::collections::BTreeMap::new();
     for v in plan.vals.iter().filter(|v| !v.boolean) {
@@ -311,3 +399,50 @@ pub fn table(head: &[String], rows: &[Vec<String>]) -> String {
 }
 
 pub use crate::text::{bound, g, range_text, signal_range_text};
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Target;
+
+    fn report(input_attr: &str) -> String {
+        let src = format!(
+            "controller kn {{\n period 0.1 \"s\";\n word 16;\n {input_attr} input n: [0.0, 1000.0];\n \
+             param KN: 6.25e-5;\n output y;\n step {{ y = n * KN; }}\n}}\n"
+        );
+        check_report(
+            &crate::compile_str(&src, &Target::default()).unwrap(),
+            "kn.qloop",
+        )
+    }
+
+    /// A user's constant 6.25e-5 on a 16-bit input with LSB 1/32 is applied as 2^-14
+    /// (-2.34 %, computed here from the values): the report says so and warns; with a finer
+    /// input the constant is applied within 1e-5 and the warning is gone.
+    #[test]
+    fn a_coarsely_applied_constant_is_reported_and_warned() {
+        let r = report("");
+        let rel = (2f64.powi(-14) - 6.25e-5) / 6.25e-5;
+        assert!(
+            r.contains(&format!("x * KN = x * 1·2^-14 ({:+.2e} %)", 100.0 * rel)),
+            "{r}"
+        );
+        assert!(
+            r.contains("warning: KN = 6.2500e-5 is applied as 6.1035e-5 (-2.34 %"),
+            "{r}"
+        );
+        let r = report("#[lsb(1e-3)]");
+        assert!(!r.contains("warning: KN"), "{r}");
+        let line = r.lines().find(|l| l.contains("x * KN")).unwrap();
+        let pct: f64 = line
+            .split('(')
+            .nth(1)
+            .unwrap()
+            .split(' ')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        assert!(pct.abs() < 1e-3, "{line}");
+    }
+}

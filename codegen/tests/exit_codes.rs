@@ -468,7 +468,7 @@ fn sim_failures() {
             "set $QLOOP_CACHE to a writable directory",
         ],
     );
-    // After the controller is compiled (cached, as in tests/sim.rs).
+    // Checked against the plant's contract before the controller is compiled.
     expect(
         "plant whose units do not match the spec",
         &run(
@@ -485,7 +485,10 @@ fn sim_failures() {
             &[],
         ),
         2,
-        &["`fc` is in `kN`"],
+        &[
+            "takes its position command in mm (length)",
+            "plant `grinding`",
+        ],
     );
     expect(
         "unwritable --out",

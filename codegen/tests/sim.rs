@@ -101,10 +101,16 @@ fn sim_rejects_a_plant_whose_units_do_not_match() {
     ]);
     let err = text(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
+    // The measurement converts (kN → N); the command cannot (mm/s is not a position). The
+    // error lists what the plant offers, and comes before the controller is compiled.
     assert!(
-        err.contains("`fc` is in `kN`") && err.contains("declare it in N"),
+        err.contains("takes its position command in mm (length)")
+            && err.contains("first output `feed` is in \"mm/s\" (velocity)")
+            && err.contains("plant `grinding`")
+            && err.contains("eta_factor"),
         "{err}"
     );
+    assert!(!err.contains("compiling the generated controller"), "{err}");
     assert!(!dir.exists(), "nothing is written on error");
 }
 

@@ -62,6 +62,7 @@
 //!   (text after eq. 12); the fixed-gain design of eq. 2 ignores the process ("ignoring the
 //!   process dynamics", text on Fig. 7).
 
+use crate::contract::Channel;
 use crate::controller::Named;
 use crate::discrete::{exp_diff, zoh_first_order};
 use crate::plant::{unknown_param, Param, Plant};
@@ -181,6 +182,28 @@ impl Plant for Grinding {
     }
     fn command(&self) -> Named {
         ("position", "mm")
+    }
+    fn describe(&self) -> (&'static str, &'static str) {
+        (
+            "normal grinding force (004 eqs. 1-5)",
+            "infeed slide position command (004 eq. 9)",
+        )
+    }
+    fn channels(&self) -> Vec<Channel> {
+        vec![
+            Channel {
+                name: "eta_factor",
+                unit: "1",
+                default: 1.0,
+                what: "factor on the process pole eta (wheel dulling)",
+            },
+            Channel {
+                name: "fr",
+                unit: "N",
+                default: self.p.fr_n,
+                what: "reference force (an input `fr` reads it)",
+            },
+        ]
     }
     fn sensor(&self) -> SensorParams {
         self.p.sensor.clone()

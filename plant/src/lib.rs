@@ -14,6 +14,7 @@
 //!   overshoot, steady-state error, oscillation verdict and frequency, fixed − f64.
 
 pub mod catalog;
+pub mod contract;
 pub mod controller;
 pub mod discrete;
 pub mod grinding;
@@ -28,6 +29,7 @@ pub mod sweep;
 pub mod trace;
 pub mod turning;
 
+pub use contract::{Binding, Channel, Contract, Reference};
 pub use controller::{Controller, Named, Signals};
 pub use metrics::{metrics, LoopMetrics, Metrics};
 pub use plant::{Param, Plant};

@@ -61,6 +61,7 @@
 //! numbers needs the adaptation for constant *dynamics* (settling, overshoot), not for
 //! stability.
 
+use crate::contract::Channel;
 use crate::controller::Named;
 use crate::discrete::exp_diff;
 use crate::plant::{unknown_param, Param, Plant};
@@ -193,11 +194,45 @@ impl Plant for Milling {
     fn command(&self) -> Named {
         ("feed", "mm/s")
     }
+    fn describe(&self) -> (&'static str, &'static str) {
+        (
+            "resultant cutting force (003 eq. 3)",
+            "table feedrate to the CNC lag (003 eqs. 1-2)",
+        )
+    }
+    fn channels(&self) -> Vec<Channel> {
+        vec![
+            Channel {
+                name: "b_mm",
+                unit: "mm",
+                default: 3.0,
+                what: "axial depth of cut (work-piece profile, 003 Fig. 1)",
+            },
+            Channel {
+                name: "immersion",
+                unit: "1",
+                default: self.p.immersion,
+                what: "radial immersion factor",
+            },
+            Channel {
+                name: "n_rpm",
+                unit: "rpm",
+                default: self.p.n_rpm,
+                what: "spindle speed",
+            },
+            Channel {
+                name: "fr",
+                unit: "kN",
+                default: self.p.fr_kn,
+                what: "reference force (for metrics; an input `fr` reads it)",
+            },
+        ]
+    }
     fn sensor(&self) -> SensorParams {
         self.p.sensor.clone()
     }
-    fn reference(&self, _: &Scenario, _: f64) -> f64 {
-        self.p.fr_kn
+    fn reference(&self, sc: &Scenario, t: f64) -> f64 {
+        sc.value("fr", t, self.p.fr_kn)
     }
     fn command_at(&mut self, _: f64, cmd: f64) {
         self.cmd = cmd;

@@ -1,5 +1,6 @@
 //! The plant side of a closed loop.
 
+use crate::contract::Channel;
 use crate::controller::Named;
 use crate::scenario::Scenario;
 use crate::sensor::SensorParams;
@@ -13,6 +14,10 @@ pub trait Plant: Send {
     fn measured(&self) -> Named;
     /// The command (the controller's first output): name and unit.
     fn command(&self) -> Named;
+    /// What the measurement and the command are, in words (for the contract).
+    fn describe(&self) -> (&'static str, &'static str);
+    /// The scenario channels the plant reads (see [`crate::contract`]).
+    fn channels(&self) -> Vec<Channel>;
     /// The sensor that measures [`Plant::measured`].
     fn sensor(&self) -> SensorParams;
     /// The reference the loop should hold at time `t` (for metrics), in the measured unit.

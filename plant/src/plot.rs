@@ -10,7 +10,6 @@
 //! the same on every machine and need no system fonts.
 
 use crate::controller::Signals;
-use crate::plant::Plant;
 use crate::scenario::Scenario;
 use crate::trace::Trace;
 use plotters::coord::Shift;
@@ -82,20 +81,26 @@ pub fn run_figure(
     title: &str,
     trace: &Trace,
     sig: &Signals,
-    plant: &dyn Plant,
+    reference: &dyn Fn(f64) -> f64,
     sc: &Scenario,
 ) -> Figure {
     let t = trace.col("t").unwrap_or_default();
+    // A controller signal named like a plant column is recorded with the suffix `_ctl`.
+    let col = |name: &str, suffix: &str| {
+        trace
+            .col(&format!("{name}_ctl{suffix}"))
+            .or_else(|| trace.col(&format!("{name}{suffix}")))
+    };
     let pair = |name: &str| -> Vec<Series> {
         let mut v = Vec::new();
-        if let Some(y) = trace.col(name) {
+        if let Some(y) = col(name, "") {
             v.push(Series {
                 label: format!("{name} fixed-point"),
                 y,
                 line: Line::Fixed,
             });
         }
-        if let Some(y) = trace.col(&format!("{name}_ref")) {
+        if let Some(y) = col(name, "_ref") {
             v.push(Series {
                 label: format!("{name} f64 reference"),
                 y,
@@ -109,7 +114,7 @@ pub fn run_figure(
         let mut series = pair(name);
         series.push(Series {
             label: "reference".into(),
-            y: t.iter().map(|&t| plant.reference(sc, t)).collect(),
+            y: t.iter().map(|&t| reference(t)).collect(),
             line: Line::Setpoint,
         });
         panels.push(Panel {

@@ -6,6 +6,7 @@
 //! (a reference, a limit) is read from the scenario channel of the same name, in that
 //! input's unit, so reference changes are scenario data too.
 
+use crate::contract::Binding;
 use crate::controller::Controller;
 use crate::plant::Plant;
 use crate::scenario::Scenario;
@@ -17,11 +18,18 @@ use crate::trace::Trace;
 pub struct RunConfig {
     /// Plant integration substeps per controller period.
     pub substeps: usize,
+    /// Unit conversions between controller and plant, checked by the caller against the
+    /// plant's [`Contract`](crate::Contract) (`qloop sim` does, with parsed units). `None`:
+    /// the units must be spelled as the plant spells them ([`check_binding`]).
+    pub binding: Option<Binding>,
 }
 
 impl Default for RunConfig {
     fn default() -> Self {
-        RunConfig { substeps: 20 }
+        RunConfig {
+            substeps: 20,
+            binding: None,
+        }
     }
 }
 
@@ -48,13 +56,18 @@ pub fn check_binding(plant: &dyn Plant, c: &dyn Controller) -> Result<(), String
     Ok(())
 }
 
-/// Checks that every controller input after the first has a scenario channel to read.
-pub fn check_channels(sc: &Scenario, c: &dyn Controller) -> Result<(), String> {
+/// Checks that every controller input after the first has a channel to read: one of the
+/// scenario's, or one of the plant's (at its default where the scenario does not set it).
+pub fn check_channels(plant: &dyn Plant, sc: &Scenario, c: &dyn Controller) -> Result<(), String> {
+    let offered = plant.channels();
     for (name, _) in c.signals().inputs.iter().skip(1) {
-        if !sc.channels.contains_key(*name) {
+        if !sc.channels.contains_key(*name) && !offered.iter().any(|ch| ch.name == *name) {
+            let names: Vec<&str> = offered.iter().map(|ch| ch.name).collect();
             return Err(format!(
-                "the controller input `{name}` is not the plant's measurement; give scenario `{}` a channel `{name}` (its schedule feeds the input)",
-                sc.name
+                "the controller input `{name}` is not the plant's measurement, and neither scenario `{}` nor the {} plant has a channel `{name}` (its schedule would feed the input); the plant's channels: {}",
+                sc.name,
+                plant.name(),
+                names.join(", ")
             ));
         }
     }
@@ -69,12 +82,20 @@ struct Loop {
     x: Vec<f64>,
     y: Vec<f64>,
     s: Vec<f64>,
-    /// Names of the inputs after the first, read from scenario channels.
-    extra: Vec<&'static str>,
+    /// Names of the inputs after the first, read from scenario channels, with the value
+    /// where the scenario does not set the channel (the plant's default).
+    extra: Vec<(&'static str, f64)>,
+    /// Unit conversions.
+    binding: Binding,
 }
 
 impl Loop {
-    fn new(plant: &dyn Plant, ctl: Box<dyn Controller + Send>, sc: &Scenario) -> Loop {
+    fn new(
+        plant: &dyn Plant,
+        ctl: Box<dyn Controller + Send>,
+        sc: &Scenario,
+        binding: Binding,
+    ) -> Loop {
         let sig = ctl.signals();
         let mut sensor_p = plant.sensor();
         sensor_p.noise_sigma = sc.noise_sigma;
@@ -84,20 +105,31 @@ impl Loop {
             x: vec![0.0; sig.inputs.len()],
             y: vec![0.0; sig.outputs.len()],
             s: vec![0.0; sig.states.len()],
-            extra: sig.inputs.iter().skip(1).map(|n| n.0).collect(),
+            extra: sig
+                .inputs
+                .iter()
+                .skip(1)
+                .map(|n| {
+                    let offered = plant.channels();
+                    let default = offered.iter().find(|c| c.name == n.0);
+                    (n.0, default.map_or(0.0, |c| c.default))
+                })
+                .collect(),
             ctl,
+            binding,
         }
     }
 
     /// Sample, compute, issue the command.
     fn sample(&mut self, sc: &Scenario, t: f64) {
-        self.x[0] = self.sensor.read(self.plant.output(sc, t));
-        for (x, name) in self.x[1..].iter_mut().zip(&self.extra) {
-            *x = sc.value(name, t, 0.0);
+        self.x[0] = self.sensor.read(self.plant.output(sc, t)) * self.binding.measured_scale;
+        for (x, (name, default)) in self.x[1..].iter_mut().zip(&self.extra) {
+            *x = sc.value(name, t, *default);
         }
         self.ctl.step(&self.x, &mut self.y);
         self.ctl.states(&mut self.s);
-        self.plant.command_at(t, self.y[0]);
+        self.plant
+            .command_at(t, self.y[0] * self.binding.command_scale);
     }
 
     fn record(&self, sc: &Scenario, t: f64, row: &mut Vec<f64>) {
@@ -109,9 +141,16 @@ impl Loop {
 }
 
 /// Checks a controller against the plant and scenario; returns its period.
-fn checked_period(plant: &dyn Plant, c: &dyn Controller, sc: &Scenario) -> Result<f64, String> {
-    check_binding(plant, c)?;
-    check_channels(sc, c)?;
+fn checked_period(
+    plant: &dyn Plant,
+    c: &dyn Controller,
+    sc: &Scenario,
+    cfg: RunConfig,
+) -> Result<f64, String> {
+    if cfg.binding.is_none() {
+        check_binding(plant, c)?;
+    }
+    check_channels(plant, sc, c)?;
     let period = c.period();
     if period.is_nan() || period <= 0.0 {
         return Err("the controller's period must be positive".into());
@@ -121,14 +160,24 @@ fn checked_period(plant: &dyn Plant, c: &dyn Controller, sc: &Scenario) -> Resul
 
 /// The trace columns of one loop: plant columns, then the controller's inputs, states and
 /// outputs by spec name, each with `suffix`.
+///
+/// A controller signal named like a plant column (an input `n_rpm` reading the channel the
+/// plant also records) gets the suffix `_ctl`, so that every column name is unique.
 fn loop_columns(plant: &dyn Plant, c: &dyn Controller, suffix: &str) -> Vec<String> {
     let sig = c.signals();
     let names = sig.inputs.iter().chain(&sig.states).chain(&sig.outputs);
-    plant
-        .columns()
+    let plant_cols = plant.columns();
+    let ctl = names.map(|n| {
+        if plant_cols.contains(&n.0) {
+            format!("{}_ctl", n.0)
+        } else {
+            n.0.to_string()
+        }
+    });
+    plant_cols
         .iter()
-        .copied()
-        .chain(names.map(|n| n.0))
+        .map(|c| c.to_string())
+        .chain(ctl)
         .map(|c| format!("{c}{suffix}"))
         .collect()
 }
@@ -179,8 +228,8 @@ pub fn run(
     sc: &Scenario,
     cfg: RunConfig,
 ) -> Result<Trace, String> {
-    let period = checked_period(plant, fixed.as_ref(), sc)?;
-    checked_period(plant, reference.as_ref(), sc)?;
+    let period = checked_period(plant, fixed.as_ref(), sc, cfg)?;
+    checked_period(plant, reference.as_ref(), sc, cfg)?;
     if fixed.signals() != reference.signals()
         || (fixed.period() - reference.period()).abs() > 1e-9 * period
     {
@@ -189,7 +238,11 @@ pub fn run(
     let mut columns = vec!["t".to_string()];
     columns.extend(loop_columns(plant, fixed.as_ref(), ""));
     columns.extend(loop_columns(plant, reference.as_ref(), "_ref"));
-    let mut loops = [Loop::new(plant, fixed, sc), Loop::new(plant, reference, sc)];
+    let b = cfg.binding.unwrap_or_default();
+    let mut loops = [
+        Loop::new(plant, fixed, sc, b),
+        Loop::new(plant, reference, sc, b),
+    ];
     Ok(drive(&mut loops, sc, period, cfg, columns))
 }
 
@@ -201,10 +254,10 @@ pub fn run_single(
     sc: &Scenario,
     cfg: RunConfig,
 ) -> Result<Trace, String> {
-    let period = checked_period(plant, ctl.as_ref(), sc)?;
+    let period = checked_period(plant, ctl.as_ref(), sc, cfg)?;
     let mut columns = vec!["t".to_string()];
     columns.extend(loop_columns(plant, ctl.as_ref(), ""));
-    let mut loops = [Loop::new(plant, ctl, sc)];
+    let mut loops = [Loop::new(plant, ctl, sc, cfg.binding.unwrap_or_default())];
     Ok(drive(&mut loops, sc, period, cfg, columns))
 }
 

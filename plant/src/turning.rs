@@ -20,6 +20,7 @@
 //! spindle revolution instead, the limit would depend on speed in a way the paper does not
 //! report. Both choices are documented as chosen, not taken from the papers.
 
+use crate::contract::Channel;
 use crate::controller::Named;
 use crate::plant::{unknown_param, Param, Plant};
 use crate::scenario::{Scenario, Schedule};
@@ -138,11 +139,39 @@ impl Plant for Turning {
     fn command(&self) -> Named {
         ("feed", "mm/s")
     }
+    fn describe(&self) -> (&'static str, &'static str) {
+        (
+            "main cutting force F_c (002 eq. 5)",
+            "axial feedrate V_f to the servo (002 eq. 4)",
+        )
+    }
+    fn channels(&self) -> Vec<Channel> {
+        vec![
+            Channel {
+                name: "a_mm",
+                unit: "mm",
+                default: 2.0,
+                what: "depth of cut",
+            },
+            Channel {
+                name: "n_rpm",
+                unit: "rpm",
+                default: 500.0,
+                what: "spindle speed",
+            },
+            Channel {
+                name: "fr",
+                unit: "kN",
+                default: self.p.fr_kn,
+                what: "reference force (for metrics; an input `fr` reads it)",
+            },
+        ]
+    }
     fn sensor(&self) -> SensorParams {
         self.p.sensor.clone()
     }
-    fn reference(&self, _: &Scenario, _: f64) -> f64 {
-        self.p.fr_kn
+    fn reference(&self, sc: &Scenario, t: f64) -> f64 {
+        sc.value("fr", t, self.p.fr_kn)
     }
     fn command_at(&mut self, t: f64, cmd: f64) {
         self.pending.push_back((t + self.p.delay_s, cmd));

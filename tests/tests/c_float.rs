@@ -886,7 +886,7 @@ controller c_features {
     input x: [0.0, 10.0] "V";
     input float: [-2.0, 2.0];
     input spare: [0.0, 1.0];
-    param G: 0.3;
+    param G: 0.3 "1/V";
     param NEG: -1.75;
     state int: [-8.0, 8.0] = 0.0;
     state w: [0.0, 0.99] = 0.5;

@@ -22,7 +22,7 @@ qloop_macros::controller! {
         #[lsb(0.001)]
         input x: [0.0, 10.0] "V";
         input y: [-2.0, 2.0];
-        param G: 0.3;
+        param G: 0.3 "1/V";
         param NEG: -1.75;
         #[q(i16, 10)]
         state s: [-8.0, 8.0] = 0.0;

@@ -66,6 +66,10 @@ pub struct Constant {
     pub unit: Option<String>,
     /// Doc lines.
     pub docs: Vec<String>,
+    /// `#[reference]`: the set point the loop holds (closed-loop runs measure against it).
+    pub reference: bool,
+    /// `#[nominal]`: the nominal feed a dimensionless (override) output multiplies.
+    pub nominal: bool,
 }
 
 /// Role of a signal.

@@ -25,6 +25,7 @@ pub mod prop_eval;
 pub mod qformat;
 pub mod terms;
 pub mod text;
+pub mod units;
 
 pub use diag::Diag;
 pub use lower::target::Target;

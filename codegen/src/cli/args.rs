@@ -115,6 +115,13 @@ pub enum Cmd {
         /// Target: a built-in name (see `qloop targets`) or a target file (`*.toml`).
         #[arg(long, default_value = "rv32i")]
         target: String,
+        /// The nominal feed, in the plant's command unit, that a dimensionless (override)
+        /// output scales: 100 % = this feed. Overrides a `#[nominal]` param.
+        #[arg(long)]
+        nominal_feed: Option<f64>,
+        /// Exit with status 1 if a loop is unstable or a cutting segment never settles.
+        #[arg(long)]
+        check: bool,
     },
     /// Monte-Carlo envelope: closed-loop runs over drawn plant parameters and scenarios, on
     /// every core, reporting the worst case of each metric and the seed that produced it.
@@ -222,6 +229,12 @@ pub enum Cmd {
     },
     /// List the built-in cost-model targets.
     Targets,
+    /// The plants' contracts: what each measures and is commanded (with units), its scenario
+    /// channels, its default reference and its built-in scenarios.
+    Plants {
+        /// One plant (default: all).
+        plant: Option<String>,
+    },
 }
 
 /// `qloop prove --solvers`.

@@ -45,6 +45,7 @@ pub fn run(out: &Path) -> CliResult {
         scenario: "depth-steps",
         out: &out.join("sim"),
         substeps: 20,
+        nominal: None,
     })?;
     print_run(&r);
     if !r.metrics.fixed.stable() {

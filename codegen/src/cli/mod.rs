@@ -12,9 +12,11 @@
 //! | `bench` | [`bench`] |
 //! | `kani` | [`kani`] (runs the Kani harnesses of a crate) |
 //! | `targets` | [`targets`] |
+//! | `plants` | [`plants`] (the plant contracts; `sim` binds a spec to one: [`bind`]) |
 
 pub mod args;
 pub mod bench;
+pub mod bind;
 pub mod check;
 pub mod demo;
 pub mod error;
@@ -22,6 +24,7 @@ pub mod files;
 pub mod gen;
 pub mod jit;
 pub mod kani;
+pub mod plants;
 pub mod prove;
 pub mod sim;
 pub mod sweep;

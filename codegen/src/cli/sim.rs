@@ -1,6 +1,7 @@
 //! `qloop sim`: one closed-loop run of a spec's compiled controller (fixed-point and f64
 //! reference) on a built-in plant and scenario; writes the trace, plots and a summary.
 
+use super::bind::{bind, Bound};
 use super::error::{CliError, CliResult};
 use super::files::{create_dir, load, write_atomic};
 use super::jit::{self, Compiled};
@@ -23,6 +24,8 @@ pub struct SimArgs<'a> {
     pub out: &'a Path,
     /// Plant substeps per controller period.
     pub substeps: usize,
+    /// The nominal feed of an override output (`--nominal-feed`), in the plant's command unit.
+    pub nominal: Option<f64>,
 }
 
 /// The outcome of a run, for the demo and the summary.
@@ -33,17 +36,20 @@ pub struct SimResult {
     pub files: Vec<PathBuf>,
     /// The printed summary.
     pub summary: String,
+    /// Whether both loops were stable and every cutting segment of the fixed-point loop
+    /// settled (for `sim --check`).
+    pub ok: bool,
 }
 
 /// `qloop sim SPEC`: loads the spec for `target`, runs it on `plant` in `scenario`, writes
 /// into `out` and prints the summary and the files written.
+/// With `check`, a run that is unstable or does not settle is an error (exit status 1).
 pub fn run(
     spec: &Path,
     target: &str,
-    plant: &str,
-    scenario: &str,
+    (plant, scenario): (&str, &str),
     out: &Path,
-    substeps: usize,
+    (substeps, nominal, check): (usize, Option<f64>, bool),
 ) -> CliResult {
     let (plan, _) = load(spec, target)?;
     let r = sim(&SimArgs {
@@ -52,8 +58,15 @@ pub fn run(
         scenario,
         out,
         substeps: substeps.max(1),
+        nominal,
     })?;
     print_run(&r);
+    if check && !r.ok {
+        return Err(CliError::Failed(Some(
+            "sim --check: a loop is unstable or a cutting segment never settles (see the summary)"
+                .into(),
+        )));
+    }
     Ok(())
 }
 
@@ -80,13 +93,17 @@ pub fn simulate(
     plant: &dyn Plant,
     sc: &Scenario,
     substeps: usize,
+    bound: &Bound,
 ) -> Result<(Trace, Metrics), String> {
     let trace = qloop_plant::run(
         plant,
         compiled.fixed(),
         compiled.reference(),
         sc,
-        RunConfig { substeps },
+        RunConfig {
+            substeps,
+            binding: Some(bound.binding),
+        },
     )?;
     let sig = compiled.signals();
     let measured = sig.inputs[0].0;
@@ -94,7 +111,7 @@ pub fn simulate(
     let m = metrics_noisy(
         &trace,
         measured,
-        &|t| plant.reference(sc, t),
+        &|t| bound.reference.at(plant, sc, t),
         &sc.breakpoints(),
         sc.duration_s,
         &compared,
@@ -107,12 +124,12 @@ pub fn simulate(
 pub fn sim(a: &SimArgs) -> CliResult<SimResult> {
     let plant = catalog::plant_named(a.plant).map_err(CliError::input)?;
     let sc = catalog::scenario(a.plant, a.scenario).map_err(CliError::input)?;
+    // The spec against the plant's contract, before the (slow) compile.
+    let bound = bind(&a.plan.prog, plant.as_ref(), &sc, a.nominal)?;
     let compiled = compile(a.plan)?;
-    qloop_plant::runner::check_binding(plant.as_ref(), compiled.fixed().as_ref())
-        .map_err(CliError::input)?;
     let (trace, m) =
-        simulate(&compiled, plant.as_ref(), &sc, a.substeps).map_err(CliError::input)?;
-    write_run(a, &compiled, plant.as_ref(), &sc, trace, m)
+        simulate(&compiled, plant.as_ref(), &sc, a.substeps, &bound).map_err(CliError::input)?;
+    write_run(a, &compiled, plant.as_ref(), &sc, &bound, trace, m)
 }
 
 /// Writes a run's trace (`trace.csv`), figure (SVG and PNG) and summary into `a.out`.
@@ -121,6 +138,7 @@ pub fn write_run(
     compiled: &Compiled,
     plant: &dyn Plant,
     sc: &Scenario,
+    bound: &Bound,
     trace: Trace,
     m: Metrics,
 ) -> CliResult<SimResult> {
@@ -133,7 +151,8 @@ pub fn write_run(
         "{} on the {} plant, scenario {}: fixed-point (compiled) and f64 reference",
         a.plan.prog.name, a.plant, sc.name
     );
-    let fig = plot::run_figure(&title, &trace, compiled.signals(), plant, sc);
+    let reference = |t: f64| bound.reference.at(plant, sc, t);
+    let fig = plot::run_figure(&title, &trace, compiled.signals(), &reference, sc);
     let stem = format!("{}-{}-{}", a.plan.prog.name, a.plant, sc.name);
     let svg = a.out.join(format!("{stem}.svg"));
     let png = a.out.join(format!("{stem}.png"));
@@ -141,11 +160,17 @@ pub fn write_run(
     plot::write_png(&fig, &png).map_err(CliError::Output)?;
     files.push(svg);
     files.push(png);
-    let summary = summary(a, sc, &trace, &m, compiled.signals());
+    let summary = summary(a, sc, &trace, &m, compiled.signals(), plant, bound);
     let txt = a.out.join("summary.txt");
     write_atomic(&txt, &summary)?;
     files.push(txt);
+    let settled = m
+        .fixed
+        .segments
+        .iter()
+        .all(|s| !s.cutting || s.settling_s.is_some());
     Ok(SimResult {
+        ok: m.fixed.stable() && m.reference.stable() && settled,
         metrics: m,
         files,
         summary,
@@ -168,6 +193,8 @@ pub fn summary(
     trace: &Trace,
     m: &Metrics,
     sig: &qloop_plant::Signals,
+    plant: &dyn Plant,
+    bound: &Bound,
 ) -> String {
     let (meas, unit) = sig.inputs[0];
     let mut s = String::new();
@@ -181,6 +208,15 @@ pub fn summary(
         trace.rows.len(),
         a.substeps
     );
+    let _ = writeln!(
+        s,
+        "reference: {} (in the plant's {})",
+        bound.reference.source(plant, sc),
+        plant.measured().1
+    );
+    for n in &bound.notes {
+        let _ = writeln!(s, "{n}");
+    }
     let _ = writeln!(
         s,
         "\n| segment (s) | loop | cutting | {meas} ss error ({unit}) | overshoot | settling ±5% | oscillating |"

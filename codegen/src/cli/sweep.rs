@@ -2,6 +2,7 @@
 //! scenarios, on every core (rayon), with a progress bar; reports the worst case of each
 //! metric and the seed that reproduces it (`qloop sweep ... --replay SEED`).
 
+use super::bind::{bind, Bound};
 use super::error::{CliError, CliResult};
 use super::files::{load, write_atomic};
 use super::jit::Compiled;
@@ -43,17 +44,27 @@ pub struct SweepCommand<'a> {
 /// Runs the sweep and prints its report, or with `--replay` one draw as `qloop sim` would.
 pub fn run(c: &SweepCommand) -> CliResult {
     let (plan, _) = load(c.spec, c.target)?;
+    // Bad plant or scenario names, and a spec the plant cannot run, fail before the
+    // controller is compiled.
+    let nominal = catalog::plant_named(c.plant).map_err(CliError::input)?;
+    let bounds = scenarios(c.plant, c.scenarios)?
+        .iter()
+        .map(|sc| {
+            Ok((
+                sc.name.clone(),
+                bind(&plan.prog, nominal.as_ref(), sc, None)?,
+            ))
+        })
+        .collect::<CliResult<Vec<_>>>()?;
     let a = SweepArgs {
         spec: &plan.prog.name,
+        bounds: &bounds,
         plant: c.plant,
         scenarios: c.scenarios,
         draws: c.draws,
         seed: c.seed,
         substeps: c.substeps.max(1),
     };
-    // Bad plant or scenario names fail before the controller is compiled.
-    catalog::plant_named(a.plant).map_err(CliError::input)?;
-    scenarios(a.plant, a.scenarios)?;
     let compiled = sim::compile(&plan)?;
     match c.replay {
         Some(seed) => run_replay(&plan, &a, &compiled, seed, c.out),
@@ -70,7 +81,9 @@ fn run_replay(plan: &Plan, a: &SweepArgs, compiled: &Compiled, seed: u64, out: &
         scenario: &d.scenario.name,
         out,
         substeps: a.substeps,
+        nominal: None,
     };
+    let bound = bound_for(a, &d.scenario)?;
     let params: Vec<String> = d.params.iter().map(|(n, v)| format!("{n}={v}")).collect();
     println!(
         "draw {seed:#018x}: scenario {} (noise seed {}), {}",
@@ -78,7 +91,15 @@ fn run_replay(plan: &Plan, a: &SweepArgs, compiled: &Compiled, seed: u64, out: &
         d.scenario.seed,
         params.join(" ")
     );
-    let r = sim::write_run(&args, compiled, d.plant.as_ref(), &d.scenario, trace, m)?;
+    let r = sim::write_run(
+        &args,
+        compiled,
+        d.plant.as_ref(),
+        &d.scenario,
+        bound,
+        trace,
+        m,
+    )?;
     print_run(&r);
     Ok(())
 }
@@ -125,6 +146,8 @@ fn run_sweep(
 pub struct SweepArgs<'a> {
     /// Spec name (for the report).
     pub spec: &'a str,
+    /// The spec bound to the plant for each scenario, by scenario name ([`bind`]).
+    pub bounds: &'a [(String, Bound)],
     /// Plant name.
     pub plant: &'a str,
     /// Scenarios to draw from (built-in names or TOML files); empty = all built-in.
@@ -135,6 +158,17 @@ pub struct SweepArgs<'a> {
     pub seed: u64,
     /// Plant substeps per period.
     pub substeps: usize,
+}
+
+/// The binding of the spec for scenario `sc` (made in [`run`] for every scenario).
+fn bound_for<'a>(a: &'a SweepArgs, sc: &Scenario) -> CliResult<&'a Bound> {
+    a.bounds
+        .iter()
+        .find(|(n, _)| *n == sc.name)
+        .map(|(_, b)| b)
+        .ok_or_else(|| {
+            CliError::input(format!("scenario `{}` was not bound to the plant", sc.name))
+        })
 }
 
 /// The scenarios a sweep draws from.
@@ -150,23 +184,22 @@ pub fn scenarios(plant: &str, names: &[String]) -> CliResult<Vec<Scenario>> {
 
 /// Runs one draw.
 fn one(
+    a: &SweepArgs,
     compiled: &Compiled,
     nominal: &dyn Plant,
     scs: &[Scenario],
     seed: u64,
-    substeps: usize,
 ) -> Result<Outcome, String> {
     let d = draw(nominal, scs, seed)?;
-    let (_, m) = sim::simulate(compiled, d.plant.as_ref(), &d.scenario, substeps)?;
+    let bound = bound_for(a, &d.scenario).map_err(|_| "scenario not bound".to_string())?;
+    let (_, m) = sim::simulate(compiled, d.plant.as_ref(), &d.scenario, a.substeps, bound)?;
     Ok(Outcome::new(&d, &m))
 }
 
 /// Runs the sweep and returns its envelope.
 pub fn sweep(a: &SweepArgs, compiled: &Compiled) -> CliResult<Envelope> {
-    let nominal = catalog::plant_named(a.plant).map_err(CliError::input)?;
+    catalog::plant_named(a.plant).map_err(CliError::input)?;
     let scs = scenarios(a.plant, a.scenarios)?;
-    qloop_plant::runner::check_binding(nominal.as_ref(), compiled.fixed().as_ref())
-        .map_err(CliError::input)?;
     let bar = indicatif::ProgressBar::new(a.draws);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
@@ -179,13 +212,7 @@ pub fn sweep(a: &SweepArgs, compiled: &Compiled) -> CliResult<Envelope> {
         .map_init(
             || catalog::plant_named(a.plant).expect("checked above"),
             |plant, i| {
-                let r = one(
-                    compiled,
-                    plant.as_ref(),
-                    &scs,
-                    draw_seed(a.seed, i),
-                    a.substeps,
-                );
+                let r = one(a, compiled, plant.as_ref(), &scs, draw_seed(a.seed, i));
                 bar.inc(1);
                 r
             },
@@ -204,7 +231,8 @@ pub fn replay(a: &SweepArgs, compiled: &Compiled, seed: u64) -> CliResult<(Draw,
     let nominal = catalog::plant_named(a.plant).map_err(CliError::input)?;
     let scs = scenarios(a.plant, a.scenarios)?;
     let d = draw(nominal.as_ref(), &scs, seed).map_err(CliError::input)?;
-    let (trace, m) = sim::simulate(compiled, d.plant.as_ref(), &d.scenario, a.substeps)
+    let bound = bound_for(a, &d.scenario)?;
+    let (trace, m) = sim::simulate(compiled, d.plant.as_ref(), &d.scenario, a.substeps, bound)
         .map_err(CliError::input)?;
     Ok((d, trace, m))
 }

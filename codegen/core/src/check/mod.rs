@@ -9,10 +9,12 @@ use crate::lang::parse::doc_lines;
 use crate::qformat::{IntTy, QFormat, Rounding, WIDTHS};
 
 mod props;
+mod units;
 use proc_macro2::Span;
 use std::collections::{BTreeSet, HashMap};
 use syn::spanned::Spanned;
 use syn::{BinOp, Expr as SExpr, Lit, UnOp};
+use units::{ParamUnits, Ty};
 
 /// Help text for any `/` or `%` in a spec.
 pub const DIVISION_HELP: &str = "qloop never emits division: a small controller has no divide \
@@ -46,6 +48,13 @@ struct Checker {
     scope: Vec<HashMap<String, SigId>>,
     /// Outputs definitely assigned at the current point.
     assigned: BTreeSet<SigId>,
+    /// The unit of each signal, indexed like `signals`.
+    sig_units: Vec<Ty>,
+    /// The unit of each `param` and `const`, and of `period`.
+    const_units: HashMap<String, Ty>,
+    /// Boolean `let`s in scope (`let over = fc > FR;`), one map per block: a name stands for
+    /// its condition wherever a condition is expected.
+    bools: Vec<HashMap<String, Cond>>,
 }
 
 impl Checker {
@@ -63,8 +72,13 @@ impl Checker {
         let mut body = None;
         let mut prove_items: Vec<PropItem> = Vec::new();
         self.scope.push(HashMap::new());
+        self.bools.push(HashMap::new());
         self.consts
             .insert("period".into(), (f64::NAN, Span::call_site()));
+        self.const_units.insert(
+            "period".into(),
+            Ty::Of(crate::units::Unit::SECOND, "s".into()),
+        );
         for item in &ast.items {
             match item {
                 Item::Period { value, unit, span } => {
@@ -175,11 +189,12 @@ impl Checker {
 
     fn define(&mut self, name: &syn::Ident) -> Result<()> {
         let n = name.to_string();
-        if self.consts.contains_key(&n) || self.lookup(&n).is_some() {
+        if self.consts.contains_key(&n) || self.lookup(&n).is_some() || self.bool_let(&n).is_some()
+        {
             return Err(Diag::new(name.span(), format!("`{n}` is already defined"))
                 .help("every constant, signal and `let` needs its own name"));
         }
-        if n == "min" || n == "max" || n == "clamp" {
+        if ["min", "max", "clamp", "abs", "convert"].contains(&n.as_str()) {
             return Err(Diag::new(
                 name.span(),
                 format!("`{n}` is a built-in function"),
@@ -200,13 +215,50 @@ impl Checker {
         self.define(&c.name)?;
         let v = self.fold(&c.value)?;
         let name = c.name.to_string();
+        let inferred = self.unit_of(&c.value, &ParamUnits::new())?;
+        let unit = match &c.unit {
+            Some(lit) => units::same(
+                Ty::declared(Some(lit))?,
+                inferred,
+                c.value.span(),
+                &format!("the value of `{name}`"),
+            )?,
+            None => match inferred {
+                Ty::Lit => Ty::declared(None)?,
+                t => t,
+            },
+        };
+        self.const_units.insert(name.clone(), unit);
         self.consts.insert(name.clone(), (v, c.name.span()));
+        let (reference, nominal) = const_attrs(c)?;
+        for (flag, mark, prev) in [
+            (
+                reference,
+                "#[reference]",
+                self.constants.iter().find(|k| k.reference),
+            ),
+            (
+                nominal,
+                "#[nominal]",
+                self.constants.iter().find(|k| k.nominal),
+            ),
+        ] {
+            if let (true, Some(p)) = (flag, prev) {
+                return Err(Diag::new(
+                    c.name.span(),
+                    format!("`{}` is already the spec's `{mark}`", p.name),
+                )
+                .help(format!("mark one `param` with `{mark}`")));
+            }
+        }
         self.constants.push(Constant {
             name,
             is_param: c.is_param,
             value: v,
             unit: c.unit.as_ref().map(|u| u.value()),
             docs: doc_lines(&c.attrs),
+            reference,
+            nominal,
         });
         Ok(())
     }
@@ -233,9 +285,14 @@ impl Checker {
                 "`#[unsaturated]` applies to states only",
             ));
         }
+        let unit = Ty::declared(s.unit.as_ref())?;
         let range = match &s.range {
             Some(r) => {
                 let (lo, hi) = (self.fold(&r.lo)?, self.fold(&r.hi)?);
+                for e in [&r.lo, &r.hi] {
+                    let t = self.unit_of(e, &ParamUnits::new())?;
+                    units::same(unit.clone(), t, e.span(), &format!("the range of `{name}`"))?;
+                }
                 if lo >= hi {
                     return Err(Diag::new(r.span, format!("empty range [{lo}, {hi}]"))
                         .help("write `[LO, HI]` with LO < HI"));
@@ -268,6 +325,13 @@ impl Checker {
         let init = match (&s.init, kind) {
             (Some(e), SigKind::State) => {
                 let v = self.fold(e)?;
+                let t = self.unit_of(e, &ParamUnits::new())?;
+                units::same(
+                    unit.clone(),
+                    t,
+                    e.span(),
+                    &format!("the initial value of `{name}`"),
+                )?;
                 let (lo, hi) = range.unwrap_or((v, v));
                 if v < lo || v > hi {
                     return Err(Diag::new(
@@ -309,6 +373,7 @@ impl Checker {
             }
         }
         let id = SigId(self.signals.len());
+        self.sig_units.push(unit);
         self.signals.push(Signal {
             name: name.clone(),
             kind,
@@ -343,12 +408,35 @@ impl Checker {
 
     fn block(&mut self, stmts: &[syn::Stmt]) -> Result<Vec<Stmt>> {
         self.scope.push(HashMap::new());
+        self.bools.push(HashMap::new());
         let mut out = Vec::new();
         for s in stmts {
             self.stmt(s, &mut out)?;
         }
         self.scope.pop();
+        self.bools.pop();
         Ok(out)
+    }
+
+    /// The condition a boolean `let` named `n` stands for, if one is in scope.
+    fn bool_let(&self, n: &str) -> Option<&Cond> {
+        self.bools.iter().rev().find_map(|s| s.get(n))
+    }
+
+    /// Whether `e` is a condition (a comparison, `&&`, `||`, `!`, or a boolean `let`) rather
+    /// than a number.
+    fn is_condition(&self, e: &SExpr) -> bool {
+        match e {
+            SExpr::Paren(p) => self.is_condition(&p.expr),
+            SExpr::Unary(u) => matches!(u.op, UnOp::Not(_)),
+            SExpr::Binary(b) => {
+                matches!(b.op, BinOp::And(_) | BinOp::Or(_)) || cmp_op(&b.op).is_some()
+            }
+            SExpr::Path(_) => {
+                path_ident(e).is_some_and(|i| self.bool_let(&i.to_string()).is_some())
+            }
+            _ => false,
+        }
     }
 
     fn stmt(&mut self, s: &syn::Stmt, out: &mut Vec<Stmt>) -> Result<()> {
@@ -373,7 +461,24 @@ impl Checker {
                 if let Some((e, _)) = &init.diverge {
                     return Err(Diag::new(e.span(), "`let .. else` is not supported"));
                 }
+                if self.is_condition(&init.expr) {
+                    // A boolean `let`: a name for a condition, substituted where it is used.
+                    let cond = self.cond(&init.expr)?;
+                    self.check_cond_units(&init.expr, &ParamUnits::new())?;
+                    if let Some(a) = local.attrs.iter().find(|a| !a.path().is_ident("doc")) {
+                        return Err(Diag::new(
+                            a.span(),
+                            "a boolean `let` takes no format attribute",
+                        ));
+                    }
+                    self.define(ident)?;
+                    if let Some(top) = self.bools.last_mut() {
+                        top.insert(ident.to_string(), cond);
+                    }
+                    return Ok(());
+                }
                 let value = self.expr(&init.expr)?;
+                let unit = self.unit_of(&init.expr, &ParamUnits::new())?;
                 let Attrs {
                     pin,
                     lsb,
@@ -385,13 +490,15 @@ impl Checker {
                 }
                 self.define(ident)?;
                 let id = SigId(self.signals.len());
+                let unit_text = unit.report_text();
+                self.sig_units.push(unit);
                 self.signals.push(Signal {
                     name: ident.to_string(),
                     kind: SigKind::Local,
                     shape: Shape::Scalar,
                     range: None,
                     init: None,
-                    unit: None,
+                    unit: unit_text,
                     pin,
                     lsb,
                     claim: claim.map(|c| c.0),
@@ -420,6 +527,7 @@ impl Checker {
             SExpr::Assign(a) => {
                 let target = self.target(&a.left)?;
                 let value = self.expr(&a.right)?;
+                self.check_store_units(target, &a.right, a.eq_token.span)?;
                 self.mark_assigned(target);
                 out.push(Stmt::Assign {
                     target,
@@ -440,6 +548,7 @@ impl Checker {
                 }
                 let cur = Box::new(Expr::Var(target, b.left.span()));
                 let rhs = Box::new(self.expr(&b.right)?);
+                self.check_store_units(target, &b.right, b.op.span())?;
                 let value = match b.op {
                     BinOp::AddAssign(_) => Expr::Add(cur, rhs),
                     _ => Expr::Sub(cur, rhs),
@@ -459,6 +568,7 @@ impl Checker {
             }
             SExpr::If(i) => {
                 let cond = self.cond(&i.cond)?;
+                self.check_cond_units(&i.cond, &ParamUnits::new())?;
                 let before = self.assigned.clone();
                 let then = self.block(&i.then_branch.stmts)?;
                 let after_then = std::mem::replace(&mut self.assigned, before);
@@ -545,6 +655,13 @@ impl Checker {
     fn name_expr(&self, e: &SExpr) -> Result<Expr> {
         let ident = path_ident(e).ok_or_else(|| Diag::new(e.span(), "expected a name"))?;
         let n = ident.to_string();
+        if self.bool_let(&n).is_some() {
+            return Err(Diag::new(ident.span(), format!("`{n}` is a condition, not a number"))
+                .label("boolean `let`")
+                .help(format!(
+                    "use it where a condition goes: `if {n} {{ .. }}`, or select a value with `if {n} {{ a }} else {{ b }}`"
+                )));
+        }
         if let Some(id) = self.lookup(&n) {
             let s = &self.signals[id.0];
             if s.kind == SigKind::Output && !self.assigned.contains(&id) {
@@ -593,7 +710,8 @@ impl Checker {
             | BinOp::And(_)
             | BinOp::Or(_) => {
                 return Err(Diag::new(op_span, "a comparison is not a number").help(
-                    "use comparisons in `if` conditions; `if c { a } else { b }` selects a value",
+                    "use comparisons in `if` conditions; `if c { a } else { b }` selects a value; \
+                     `let over = fc > FR;` names a condition",
                 ))
             }
             _ => {
@@ -630,23 +748,50 @@ impl Checker {
 
     fn builtin(&self, f: &syn::Ident, args: &[&SExpr], span: Span) -> Result<Expr> {
         let n = f.to_string();
-        let want =
-            match n.as_str() {
-                "min" | "max" => 2,
-                "clamp" => 3,
-                "div" | "recip" | "div_euclid" | "rem" | "rem_euclid" | "checked_div"
-                | "wrapping_div" | "saturating_div" | "inv" => {
-                    return Err(Diag::new(
-                        f.span(),
-                        format!("`{n}` divides: division is not allowed in a qloop spec"),
-                    )
-                    .label("division")
-                    .help(DIVISION_HELP))
+        let want = match n.as_str() {
+            "abs" => {
+                if args.len() != 1 {
+                    return Err(Diag::new(span, "`abs` takes 1 argument"));
                 }
-                _ => return Err(Diag::new(f.span(), format!("unknown function `{n}`")).help(
-                    "the built-in functions are `min(a, b)`, `max(a, b)` and `clamp(x, lo, hi)`",
-                )),
-            };
+                // |x| = max(x, -x): branch-free, total (the negation is widened).
+                let x = self.expr(args[0])?;
+                return fold1(
+                    Expr::Max(Box::new(x.clone()), Box::new(Expr::Neg(Box::new(x)))),
+                    span,
+                );
+            }
+            "convert" => {
+                if args.len() != 2 {
+                    return Err(Diag::new(span, "`convert` takes 2 arguments")
+                        .help("write `convert(x, \"mm/s\")`"));
+                }
+                let x = self.expr(args[0])?;
+                let factor = self.convert_factor(args, span)?;
+                let k = Expr::Const {
+                    value: factor,
+                    name: None,
+                    span,
+                };
+                return fold1(Expr::Mul(Box::new(x), Box::new(k), span), span);
+            }
+            "min" | "max" => 2,
+            "clamp" => 3,
+            "div" | "recip" | "div_euclid" | "rem" | "rem_euclid" | "checked_div"
+            | "wrapping_div" | "saturating_div" | "inv" => {
+                return Err(Diag::new(
+                    f.span(),
+                    format!("`{n}` divides: division is not allowed in a qloop spec"),
+                )
+                .label("division")
+                .help(DIVISION_HELP))
+            }
+            _ => {
+                return Err(Diag::new(f.span(), format!("unknown function `{n}`")).help(
+                    "the built-in functions are `min(a, b)`, `max(a, b)`, `clamp(x, lo, hi)`, \
+                     `abs(x)` and `convert(x, \"unit\")`",
+                ))
+            }
+        };
         if args.len() != want {
             return Err(Diag::new(span, format!("`{n}` takes {want} arguments")));
         }
@@ -678,6 +823,14 @@ impl Checker {
     fn cond(&self, e: &SExpr) -> Result<Cond> {
         match e {
             SExpr::Paren(p) => self.cond(&p.expr),
+            SExpr::Path(_) => path_ident(e)
+                .and_then(|i| self.bool_let(&i.to_string()).cloned())
+                .ok_or_else(|| {
+                    Diag::new(e.span(), "expected a comparison").help(
+                        "conditions compare numbers with < <= > >= == != and join them with && || !; \
+                         a boolean `let` names one",
+                    )
+                }),
             SExpr::Unary(u) if matches!(u.op, UnOp::Not(_)) => {
                 Ok(Cond::Not(Box::new(self.cond(&u.expr)?)))
             }
@@ -858,6 +1011,52 @@ fn lit_value(l: &Lit) -> Result<f64> {
         return Err(Diag::new(l.span(), "number out of range"));
     }
     Ok(v)
+}
+
+/// The attributes of a `param` or `const`: `#[reference]` and `#[nominal]` on a `param`.
+/// Formats are refused: a constant is quantised where it is used (each use at the precision
+/// of the value it meets, its error counted in `check`), so there is no one quantum to set.
+fn const_attrs(c: &ConstDecl) -> Result<(bool, bool)> {
+    let (mut reference, mut nominal) = (false, false);
+    let kw = if c.is_param { "param" } else { "const" };
+    for a in &c.attrs {
+        let p = a.path();
+        if p.is_ident("doc") {
+            continue;
+        }
+        let flag = if p.is_ident("reference") {
+            &mut reference
+        } else if p.is_ident("nominal") {
+            &mut nominal
+        } else if p.is_ident("lsb") || p.is_ident("q") {
+            return Err(Diag::new(
+                a.span(),
+                format!("a `{kw}` has no format of its own"),
+            )
+            .label("not applied")
+            .help(
+                "a constant is quantised where it is used, at the precision of the value it \
+                 meets; `qloop check` lists each constant's quantisation error. Pin the format \
+                 of the `let` or signal that uses it instead",
+            ));
+        } else {
+            return Err(Diag::new(a.span(), format!("unknown attribute on a `{kw}`")).help(
+                "a `param` takes `#[reference]` (the set point closed-loop runs measure against) \
+                 or `#[nominal]` (the nominal feed an override output multiplies)",
+            ));
+        };
+        if !c.is_param {
+            return Err(
+                Diag::new(a.span(), "`#[reference]` and `#[nominal]` mark a `param`")
+                    .help(format!("write `param {}` instead of `const`", c.name)),
+            );
+        }
+        if !matches!(a.meta, syn::Meta::Path(_)) {
+            return Err(Diag::new(a.span(), "this attribute takes no arguments"));
+        }
+        *flag = true;
+    }
+    Ok((reference, nominal))
 }
 
 /// Format and proof attributes of a declaration.
@@ -1134,7 +1333,7 @@ mod tests {
 
     #[test]
     fn constants_fold_and_period_is_a_name() {
-        let src = "controller t {\nperiod 2 \"ms\";\nconst A: 3.0 * period - 0.5 * 0.002;\ninput x: [0.0, 1.0];\noutput y;\nstep { y = x * A; }\n}";
+        let src = "controller t {\nperiod 2 \"ms\";\nconst A: 3.0 * period - 0.5 * 0.002;\ninput x: [0.0, 1.0];\noutput y \"s\";\nstep { y = x * A; }\n}";
         let p = super::check(&parse_str(src).unwrap()).unwrap();
         assert_eq!(p.period, 0.002);
         assert_eq!(p.constants[0].value, 3.0 * 0.002 - 0.5 * 0.002);

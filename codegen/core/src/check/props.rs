@@ -1,6 +1,7 @@
 //! Checking `prove { .. }` blocks: invariants over the states and step properties over
 //! pre-state, post-state (`next(x)`), inputs, outputs and free parameters.
 
+use super::units::{ParamUnits, Ty};
 use super::{lit_value, path_ident, unknown, Checker};
 use crate::diag::{Diag, Result};
 use crate::ir::*;
@@ -41,6 +42,7 @@ impl Checker {
                         params: &HashMap::new(),
                         invariant: true,
                     };
+                    self.check_cond_units(cond, &ParamUnits::new())?;
                     invariants.push(Invariant {
                         name,
                         docs: docs.clone(),
@@ -51,13 +53,14 @@ impl Checker {
                 PropItem::Property {
                     docs,
                     foralls,
-                    assumes,
-                    ensures,
+                    assumes: assumes_src,
+                    ensures: ensures_src,
                     ..
                 } => {
                     let mut params = Vec::new();
                     let mut index = HashMap::new();
-                    for (p, r) in foralls {
+                    let mut units = ParamUnits::new();
+                    for (p, r, unit) in foralls {
                         let n = p.to_string();
                         if self.consts.contains_key(&n)
                             || self.lookup(&n).is_some()
@@ -70,6 +73,7 @@ impl Checker {
                         if lo >= hi {
                             return Err(Diag::new(r.span, format!("empty range [{lo}, {hi}]")));
                         }
+                        units.insert(n.clone(), Ty::declared(unit.as_ref())?);
                         index.insert(n.clone(), params.len());
                         params.push(FreeParam {
                             name: n,
@@ -80,14 +84,17 @@ impl Checker {
                         params: &index,
                         invariant: false,
                     };
-                    let assumes = assumes
+                    let assumes = assumes_src
                         .iter()
                         .map(|c| self.pcond(c, &ctx))
                         .collect::<Result<_>>()?;
-                    let ensures = ensures
+                    let ensures = ensures_src
                         .iter()
                         .map(|c| self.pcond(c, &ctx))
                         .collect::<Result<_>>()?;
+                    for c in assumes_src.iter().chain(ensures_src) {
+                        self.check_cond_units(c, &units)?;
+                    }
                     properties.push(Property {
                         name,
                         docs: docs.clone(),

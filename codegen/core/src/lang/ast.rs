@@ -119,15 +119,15 @@ pub enum PropItem {
         /// The condition.
         cond: Expr,
     },
-    /// `property NAME { forall P in [LO, HI]; assume COND; ensure COND; }`: a step property
+    /// `property NAME { forall P in [LO, HI] "unit"; assume COND; ensure COND; }`: a step property
     /// over pre-state (`x`), post-state (`next(x)`), inputs, outputs and free parameters.
     Property {
         /// Doc lines.
         docs: Vec<String>,
         /// Name.
         name: Ident,
-        /// Free parameters and their ranges.
-        foralls: Vec<(Ident, RangeAst)>,
+        /// Free parameters, their ranges and units (`forall kp in [0.25, 6.0] "kN/(mm/s)";`).
+        foralls: Vec<(Ident, RangeAst, Option<LitStr>)>,
         /// Premises.
         assumes: Vec<Expr>,
         /// Conclusions.

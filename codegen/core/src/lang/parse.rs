@@ -178,7 +178,8 @@ fn parse_prop_item(input: ParseStream) -> syn::Result<PropItem> {
                 body.parse::<kw::forall>()?;
                 let p: Ident = body.parse()?;
                 body.parse::<Token![in]>()?;
-                foralls.push((p, parse_range(&body)?));
+                let range = parse_range(&body)?;
+                foralls.push((p, range, parse_unit(&body)?));
             } else if la.peek(kw::assume) {
                 body.parse::<kw::assume>()?;
                 assumes.push(body.parse()?);

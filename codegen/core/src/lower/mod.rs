@@ -1357,7 +1357,7 @@ mod tests {
     #[test]
     fn a_store_from_a_vastly_coarser_value_is_refused_not_a_panic() {
         let src = include_str!("../../../../verified/specs/acc_fixed_gain.qloop");
-        let src = src.replace("u += KC * e;", "u += 1e300 * e;");
+        let src = src.replace("u += KC * e;", "u += 1e300 * KC * e;");
         assert_ne!(
             src,
             include_str!("../../../../verified/specs/acc_fixed_gain.qloop")

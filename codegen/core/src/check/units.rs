@@ -1,0 +1,374 @@
+//! Checking physical units (see [`crate::units`] for the unit algebra).
+//!
+//! Rules, checked on the spec's syntax so that every error points at the operator or
+//! operand at fault:
+//! - a name has its declared unit; a name declared without one is dimensionless; a `let`
+//!   has the unit of its value; `period` is in seconds;
+//! - a number literal takes the unit of whatever it is added to or compared with (`fc > 0.15`
+//!   compares kN with kN), and is dimensionless as a factor;
+//! - `+ - min max clamp`, the arms of a value `if`, comparisons and assignments need the same
+//!   unit on both sides: the same dimension *and* the same scale. `N` against `kN` is an error
+//!   naming both; `convert(x, "kN")` converts explicitly (a constant factor, here 10⁻³);
+//! - `*` multiplies units (`kc * km` is `(mm/s)/kN · kN/(mm/s)`, dimensionless); `abs`,
+//!   `next` and unary `-` keep them.
+
+use super::{path_ident, Checker};
+use crate::diag::{Diag, Result};
+use crate::ir::SigId;
+use crate::text::g;
+use crate::units::{self, Unit};
+use proc_macro2::Span;
+use std::collections::HashMap;
+use syn::spanned::Spanned;
+use syn::{BinOp, Expr as SExpr, LitStr, UnOp};
+
+/// The unit of an expression.
+#[derive(Clone, Debug)]
+pub(crate) enum Ty {
+    /// A number literal (or an expression of literals only): adopts the other operand's unit.
+    Lit,
+    /// A unit, with the text that names it in messages.
+    Of(Unit, String),
+}
+
+impl Ty {
+    /// A declared unit (dimensionless if none).
+    pub(crate) fn declared(unit: Option<&LitStr>) -> Result<Ty> {
+        let Some(lit) = unit else {
+            return Ok(Ty::Of(Unit::ONE, "1".into()));
+        };
+        let text = lit.value();
+        match units::parse(&text) {
+            Ok(u) => Ok(Ty::Of(u, display(&text))),
+            Err(e) => {
+                let mut d = Diag::new(
+                    lit.span(),
+                    format!(
+                        "{} in the unit \"{text}\" (at character {})",
+                        e.message,
+                        e.at + 1
+                    ),
+                )
+                .label("unknown unit");
+                d = match e.suggestion {
+                    Some(s) => d.help(format!(
+                        "did you mean `{s}`? Units are SI symbols with prefixes (mm, kN, kW, ms) \
+                         and rev, rpm, min, h, deg, rad, in, %, joined with * / ^ and parentheses"
+                    )),
+                    None => d.help(
+                        "units are SI symbols with prefixes (mm, kN, kW, ms) and rev, rpm, min, \
+                         h, deg, rad, in, %, joined with * / ^ and parentheses; see README, Units",
+                    ),
+                };
+                Err(d)
+            }
+        }
+    }
+
+    /// The unit, dimensionless for a literal.
+    pub(crate) fn unit(&self) -> Unit {
+        match self {
+            Ty::Lit => Unit::ONE,
+            Ty::Of(u, _) => *u,
+        }
+    }
+
+    /// The unit's text for reports: `None` if dimensionless (or a literal).
+    pub(crate) fn report_text(&self) -> Option<String> {
+        match self {
+            Ty::Of(_, t) if t != "1" => Some(t.clone()),
+            _ => None,
+        }
+    }
+
+    fn text(&self) -> String {
+        match self {
+            Ty::Lit => "a number".into(),
+            Ty::Of(_, t) => t.clone(),
+        }
+    }
+}
+
+/// A unit's text for messages: `1` reads as "dimensionless".
+fn display(text: &str) -> String {
+    if text.trim().is_empty() || text.trim() == "1" {
+        "1".into()
+    } else {
+        text.to_string()
+    }
+}
+
+/// `a · b` as text, parenthesised where a quotient would read wrongly.
+fn product_text(a: &str, b: &str) -> String {
+    let wrap = |s: &str| {
+        if s.contains(['/', '·', '*']) {
+            format!("({s})")
+        } else {
+            s.to_string()
+        }
+    };
+    match (a, b) {
+        ("1", x) | (x, "1") => x.to_string(),
+        _ => format!("{}·{}", wrap(a), wrap(b)),
+    }
+}
+
+/// Describes a unit for a message: its text, and what it is in SI where that helps.
+fn describe(t: &Ty) -> String {
+    match t {
+        Ty::Lit => "a number".into(),
+        Ty::Of(u, text) => {
+            let name = u.dimension_name().unwrap_or("");
+            let si = u.to_string();
+            match (text == "1", name.is_empty()) {
+                (true, _) => "dimensionless".into(),
+                (false, true) => format!("{text} (= {si})"),
+                (false, false) if si == *text => format!("{text} ({name})"),
+                (false, false) => format!("{text} ({name}, = {si})"),
+            }
+        }
+    }
+}
+
+/// Free parameters' units while checking a property.
+pub(crate) type ParamUnits = HashMap<String, Ty>;
+
+/// Both sides of `what` (an operator or a role: "+", "assignment") at `span` in one unit.
+pub(crate) fn same(a: Ty, b: Ty, span: Span, what: &str) -> Result<Ty> {
+    let (ua, ub) = match (&a, &b) {
+        (Ty::Lit, _) => return Ok(b),
+        (_, Ty::Lit) => return Ok(a),
+        (Ty::Of(ua, _), Ty::Of(ub, _)) => (*ua, *ub),
+    };
+    if ua.same(&ub) {
+        return Ok(a);
+    }
+    let (ta, tb) = (a.text(), b.text());
+    if let Some(f) = ub.factor_to(&ua) {
+        return Err(Diag::new(
+            span,
+            format!(
+                "{what}: {} and {} are the same dimension in different units",
+                describe(&a),
+                describe(&b)
+            ),
+        )
+        .label(format!("{ta} vs {tb}"))
+        .help(format!(
+            "1 {tb} = {} {ta}: qloop does not rescale silently; declare both in one unit, \
+             or convert explicitly with `convert(x, \"{ta}\")` (a constant factor)",
+            g(f)
+        )));
+    }
+    Err(Diag::new(
+        span,
+        format!(
+            "{what}: {} and {} have different dimensions",
+            describe(&a),
+            describe(&b)
+        ),
+    )
+    .label(format!("{ta} vs {tb}"))
+    .help(
+        "only quantities of one unit add, subtract, compare or assign: check the formula; a \
+         name declared without a unit is dimensionless (`const C1: 0.25 \"s/mm\";` gives one)",
+    ))
+}
+
+impl Checker {
+    /// The unit of signal `id`.
+    pub(crate) fn sig_unit(&self, id: SigId) -> Ty {
+        self.sig_units
+            .get(id.0)
+            .cloned()
+            .unwrap_or(Ty::Of(Unit::ONE, "1".into()))
+    }
+
+    /// The unit of expression `e` (already checked for names by [`Checker::expr`] or the
+    /// property checker), checking every sum, comparison and selection inside it.
+    pub(crate) fn unit_of(&self, e: &SExpr, params: &ParamUnits) -> Result<Ty> {
+        match e {
+            SExpr::Lit(_) => Ok(Ty::Lit),
+            SExpr::Paren(p) => self.unit_of(&p.expr, params),
+            SExpr::Group(g) => self.unit_of(&g.expr, params),
+            SExpr::Path(_) => Ok(self.name_unit(e, params)),
+            SExpr::Unary(u) if matches!(u.op, UnOp::Neg(_)) => self.unit_of(&u.expr, params),
+            SExpr::Binary(b) => {
+                let (l, r) = (
+                    self.unit_of(&b.left, params)?,
+                    self.unit_of(&b.right, params)?,
+                );
+                match b.op {
+                    BinOp::Mul(_) => Ok(match (l, r) {
+                        (Ty::Lit, x) | (x, Ty::Lit) => x,
+                        (Ty::Of(a, ta), Ty::Of(c, tc)) => {
+                            let u = a * c;
+                            let text = if u.same(&Unit::ONE) {
+                                "1".to_string()
+                            } else {
+                                product_text(&ta, &tc)
+                            };
+                            Ty::Of(u, text)
+                        }
+                    }),
+                    BinOp::Add(_) => same(l, r, b.op.span(), "`+`"),
+                    BinOp::Sub(_) => same(l, r, b.op.span(), "`-`"),
+                    _ => Ok(l),
+                }
+            }
+            SExpr::Call(c) => {
+                let args: Vec<&SExpr> = c.args.iter().collect();
+                let f = path_ident(&c.func)
+                    .map(|f| f.to_string())
+                    .unwrap_or_default();
+                self.call_unit(&f, &args, c.span(), params)
+            }
+            SExpr::MethodCall(m) => {
+                let mut args: Vec<&SExpr> = vec![&m.receiver];
+                args.extend(m.args.iter());
+                self.call_unit(&m.method.to_string(), &args, m.span(), params)
+            }
+            SExpr::If(i) => {
+                self.check_cond_units(&i.cond, params)?;
+                let a = match i.then_branch.stmts.last() {
+                    Some(syn::Stmt::Expr(x, None)) => self.unit_of(x, params)?,
+                    _ => Ty::Lit,
+                };
+                let b = match &i.else_branch {
+                    Some((_, x)) => match &**x {
+                        SExpr::Block(bl) => match bl.block.stmts.last() {
+                            Some(syn::Stmt::Expr(x, None)) => self.unit_of(x, params)?,
+                            _ => Ty::Lit,
+                        },
+                        other => self.unit_of(other, params)?,
+                    },
+                    None => Ty::Lit,
+                };
+                same(a, b, i.if_token.span, "the arms of this `if`")
+            }
+            _ => Ok(Ty::Lit),
+        }
+    }
+
+    fn name_unit(&self, e: &SExpr, params: &ParamUnits) -> Ty {
+        let Some(ident) = path_ident(e) else {
+            return Ty::Lit;
+        };
+        let n = ident.to_string();
+        if let Some(t) = params.get(&n) {
+            return t.clone();
+        }
+        if let Some(id) = self.lookup(&n) {
+            return self.sig_unit(id);
+        }
+        self.const_units.get(&n).cloned().unwrap_or(Ty::Lit)
+    }
+
+    fn call_unit(&self, f: &str, args: &[&SExpr], span: Span, params: &ParamUnits) -> Result<Ty> {
+        let tys: Vec<Ty> = args
+            .iter()
+            .map(|a| self.unit_of(a, params))
+            .collect::<Result<_>>()?;
+        match (f, tys.as_slice()) {
+            ("min" | "max", [a, b]) => same(a.clone(), b.clone(), span, &format!("`{f}`")),
+            ("clamp", [x, lo, hi]) => {
+                let t = same(
+                    x.clone(),
+                    lo.clone(),
+                    args[1].span(),
+                    "`clamp`'s lower bound",
+                )?;
+                same(t, hi.clone(), args[2].span(), "`clamp`'s upper bound")
+            }
+            ("convert", [x, _]) => {
+                let to = self.convert_target(args)?;
+                match x {
+                    Ty::Lit => Ok(to.1),
+                    Ty::Of(u, text) => {
+                        if to.0.factor_to(u).is_none() {
+                            return Err(Diag::new(
+                                args[1].span(),
+                                format!(
+                                    "cannot convert {} to {}: different dimensions",
+                                    describe(x),
+                                    describe(&to.1)
+                                ),
+                            )
+                            .label(format!("{text} → {}", to.1.text()))
+                            .help("`convert` changes the unit within one dimension (N → kN, mm/s → mm/min); check the formula"));
+                        }
+                        Ok(to.1)
+                    }
+                }
+            }
+            (_, [a, ..]) => Ok(a.clone()),
+            _ => Ok(Ty::Lit),
+        }
+    }
+
+    /// The target of `convert(x, "unit")`: the unit and its [`Ty`].
+    pub(crate) fn convert_target(&self, args: &[&SExpr]) -> Result<(Unit, Ty)> {
+        let lit = match args.get(1) {
+            Some(SExpr::Lit(syn::ExprLit {
+                lit: syn::Lit::Str(s),
+                ..
+            })) => s,
+            Some(other) => {
+                return Err(Diag::new(other.span(), "expected a unit string")
+                    .help("write `convert(x, \"mm/s\")`"))
+            }
+            None => {
+                return Err(Diag::new(Span::call_site(), "`convert` takes 2 arguments")
+                    .help("write `convert(x, \"mm/s\")`"))
+            }
+        };
+        let t = Ty::declared(Some(lit))?;
+        Ok((t.unit(), t))
+    }
+
+    /// The factor of `convert(x, "unit")`: from `x`'s unit to the named one.
+    pub(crate) fn convert_factor(&self, args: &[&SExpr], span: Span) -> Result<f64> {
+        // Checks the argument's units and the conversion, with the located messages.
+        self.call_unit("convert", args, span, &ParamUnits::new())?;
+        let (to, _) = self.convert_target(args)?;
+        let from = self.unit_of(args[0], &ParamUnits::new())?;
+        from.unit().factor_to(&to).ok_or_else(|| {
+            Diag::new(
+                span,
+                format!(
+                    "cannot convert {} to {}: different dimensions",
+                    describe(&from),
+                    to
+                ),
+            )
+        })
+    }
+
+    /// Checks the units in a condition (`if`, `assume`, `ensure`, `invariant`).
+    pub(crate) fn check_cond_units(&self, e: &SExpr, params: &ParamUnits) -> Result<()> {
+        match e {
+            SExpr::Paren(p) => self.check_cond_units(&p.expr, params),
+            SExpr::Unary(u) => self.check_cond_units(&u.expr, params),
+            SExpr::Binary(b) if matches!(b.op, BinOp::And(_) | BinOp::Or(_)) => {
+                self.check_cond_units(&b.left, params)?;
+                self.check_cond_units(&b.right, params)
+            }
+            SExpr::Binary(b) => {
+                let (l, r) = (
+                    self.unit_of(&b.left, params)?,
+                    self.unit_of(&b.right, params)?,
+                );
+                same(l, r, b.op.span(), "this comparison").map(|_| ())
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// Checks that `value` can be stored in `target` (an assignment, `+=`, `-=`).
+    pub(crate) fn check_store_units(&self, target: SigId, value: &SExpr, span: Span) -> Result<()> {
+        let v = self.unit_of(value, &ParamUnits::new())?;
+        let t = self.sig_unit(target);
+        let name = &self.signals[target.0].name;
+        same(t, v, span, &format!("assignment to `{name}`")).map(|_| ())
+    }
+}
