@@ -48,7 +48,9 @@ fn run(cli: Cli) -> CliResult {
             smt_dir,
             only,
             target,
+            verbose,
         } => cli::prove::run(cli::prove::ProveArgs {
+            verbose,
             spec: &spec,
             json: json.as_deref(),
             timeout,

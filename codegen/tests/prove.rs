@@ -105,5 +105,14 @@ fn every_refutation_corpus_spec_is_refuted_on_its_obligation() {
             "{}: no `REFUTED: ` line naming `{expect}`:\n{out}",
             spec.display()
         );
+        // A refuted property shows the step: the post-state and each clause evaluated, one of
+        // its conclusions false.
+        if expect.starts_with("property") {
+            assert!(
+                out.contains("after the step: ") && out.contains("`: FALSE ("),
+                "{}: the counterexample does not show the step:\n{out}",
+                spec.display()
+            );
+        }
     }
 }

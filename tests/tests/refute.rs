@@ -43,7 +43,7 @@ fn refuted(name: &str) -> (Plan, Outcome) {
         jobs: 2,
         deadline: None,
     };
-    let report = qloop::prove::prove(&plan, &cfg, &mut |_, _| {});
+    let report = qloop::prove::prove(&plan, &cfg, &mut |_| {});
     let table = report.table(&plan);
     let o = report
         .outcomes

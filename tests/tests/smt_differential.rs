@@ -157,7 +157,7 @@ fn proves_with_both_solvers(stem: &str) {
         jobs: 2,
         deadline: None,
     };
-    let report = qloop::prove::prove(&p, &cfg, &mut |_, _| {});
+    let report = qloop::prove::prove(&p, &cfg, &mut |_| {});
     assert!(report.proved(), "{}", report.table(&p));
     for o in &report.outcomes {
         assert!(

@@ -90,6 +90,10 @@ pub enum Cmd {
         /// Target: a built-in name (see `qloop targets`) or a target file (`*.toml`).
         #[arg(long, default_value = "rv32i")]
         target: String,
+        /// Print every obligation's row (each solver's answer and time) and what the
+        /// verdicts mean, not only the summary.
+        #[arg(long, short)]
+        verbose: bool,
     },
     /// Run the compiled controller (fixed-point and f64 reference) in closed loop on a
     /// reference plant; write DIR/trace.csv, plots (SVG, PNG) and a summary.

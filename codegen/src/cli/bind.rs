@@ -210,10 +210,15 @@ pub fn bind(
                     k.name
                 ));
             }
+            let converted = if ku.same(&m_unit) {
+                String::new()
+            } else {
+                format!(" = {} {}", qloop::text::g(k.value * f), c.measured.1)
+            };
             Reference::Constant {
                 value: k.value * f,
                 source: format!(
-                    "the spec's {}param {} = {} {}",
+                    "the spec's {}param {} = {} {}{converted}",
                     if k.reference { "#[reference] " } else { "" },
                     k.name,
                     qloop::text::g(k.value),

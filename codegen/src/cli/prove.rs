@@ -5,6 +5,7 @@ use super::args::Solvers;
 use super::error::{CliError, CliResult};
 use super::files::{create_dir, load, write_atomic};
 use qloop::prove::solver::{Config, Solver};
+use qloop::prove::Progress;
 use qloop::Plan;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -33,6 +34,8 @@ pub struct ProveArgs<'a> {
     pub only: Option<&'a str>,
     /// `--target`.
     pub target: &'a str,
+    /// `--verbose`: the full table, not only the summary.
+    pub verbose: bool,
 }
 
 /// Proves the spec and prints the table; fails (exit 1) unless everything is proved.
@@ -45,7 +48,12 @@ pub fn run(a: ProveArgs) -> CliResult {
     let start = Instant::now();
     cfg.deadline = a.timeout.map(|t| start + Duration::from_secs(t));
     let report = prove_with_progress(&plan, &cfg, a.only);
-    print!("{}", report.table(&plan));
+    if a.verbose {
+        print!("{}", report.table(&plan));
+    } else {
+        print!("{}", report.summary(&plan));
+        println!("\n(every obligation's row and what the verdicts mean: `qloop prove --verbose`)");
+    }
     if let Some(j) = a.json {
         write_atomic(j, &report.json())?;
     }
@@ -135,15 +143,30 @@ pub fn prove_with_progress(plan: &Plan, cfg: &Config, only: Option<&str>) -> qlo
     let quiet = bar.is_hidden();
     let start = Instant::now();
     let mut last = start;
-    let report = qloop::prove::prove_filtered(plan, cfg, only, &mut |done, total| {
-        bar.set_length(total as u64);
-        bar.set_position(done as u64);
-        if quiet && (last.elapsed().as_secs() >= 10 || done == total) {
-            last = Instant::now();
-            eprintln!(
-                "qloop prove: {done}/{total} solver runs done, {:.0} s",
-                start.elapsed().as_secs_f64()
-            );
+    let report = qloop::prove::prove_filtered(plan, cfg, only, &mut |p| match p {
+        Progress::Runs { done, total } => {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+            if quiet && (last.elapsed().as_secs() >= 10 || done == total) {
+                last = Instant::now();
+                eprintln!(
+                    "qloop prove: {done}/{total} solver runs done, {:.0} s",
+                    start.elapsed().as_secs_f64()
+                );
+            }
+        }
+        Progress::Group {
+            kind,
+            queries,
+            secs,
+        } => {
+            let line =
+                format!("qloop prove: {kind} obligations done ({queries} queries), {secs:.1} s");
+            if quiet {
+                eprintln!("{line}");
+            } else {
+                bar.println(line);
+            }
         }
     });
     bar.finish_and_clear();

@@ -208,12 +208,7 @@ pub fn summary(
         trace.rows.len(),
         a.substeps
     );
-    let _ = writeln!(
-        s,
-        "reference: {} (in the plant's {})",
-        bound.reference.source(plant, sc),
-        plant.measured().1
-    );
+    let _ = writeln!(s, "reference: {}", bound.reference.source(plant, sc));
     for n in &bound.notes {
         let _ = writeln!(s, "{n}");
     }

@@ -15,7 +15,8 @@
 //!   (out s32).
 //! * `adaptive_feed` (out float): the **first** output times the reciprocal of its range
 //!   maximum (declared, or proved for an unranged output), clamped to `[0, 1]`, for
-//!   `motion.adaptive-feed`.
+//!   `motion.adaptive-feed`; a first output in `%` or declared dimensionless (`"1"`) is a
+//!   feed override and is taken as such (100 % is 1).
 //! * `steps` (out u32), controller steps since load; the spec's `param`s as read-only float
 //!   params (compiled-in constants); `period_us` (read-only u32), the sample period.
 //!
@@ -103,9 +104,13 @@ struct Layout {
     /// HAL name, value, spec index of each `param`.
     params: Vec<(String, f64, usize)>,
     period_us: u64,
-    /// Range maximum of the first output, and its reciprocal as the multiplier.
+    /// The first output's value that means adaptive feed 1 (its range maximum, or 100 %
+    /// for an override), and its reciprocal as the multiplier.
     full_scale: f64,
     override_scale: f64,
+    /// Why that value: `the range maximum of feed (5 mm/s)` or `100 %: ovr is a feed
+    /// override`.
+    scale_why: String,
 }
 
 /// Component variables (halcompile `variable`), beside pins and params.
@@ -221,7 +226,36 @@ fn layout(plan: &Plan) -> Result<Layout, Unrepresentable> {
         );
     }
     let first = &outputs[0];
-    let full_scale = plan.summary[first.id.0].range.1;
+    let fo = p.sig(first.id);
+    let unit = crate::units::parse(fo.unit.as_deref().unwrap_or("")).ok();
+    // A dimensionless first output (a fraction, or %) is already an override: 1 (100 %) is
+    // adaptive feed 1. Anything else is scaled by its range maximum.
+    let (full_scale, scale_why) = match unit {
+        Some(u) if u.is_dimensionless() && fo.unit.is_some() => (
+            1.0 / u.scale,
+            format!(
+                "{} {}: `{}` is a feed override (above it LinuxCNC caps adaptive-feed at 1)",
+                g(1.0 / u.scale),
+                fo.unit.as_deref().unwrap_or(""),
+                fo.name
+            ),
+        ),
+        _ => {
+            let m = plan.summary[first.id.0].range.1;
+            (
+                m,
+                format!(
+                    "the range maximum of {} ({}{})",
+                    fo.name,
+                    g(m),
+                    fo.unit
+                        .as_deref()
+                        .map(|u| format!(" {u}"))
+                        .unwrap_or_default()
+                ),
+            )
+        }
+    };
     let override_scale = 1.0 / full_scale;
     if !(full_scale > 0.0 && override_scale.is_finite() && override_scale > 0.0) {
         return err(
@@ -245,6 +279,7 @@ fn layout(plan: &Plan) -> Result<Layout, Unrepresentable> {
         period_us: period_us as u64,
         full_scale,
         override_scale,
+        scale_why,
     };
     check_names(plan, &l)?;
     Ok(l)
@@ -355,8 +390,11 @@ fn doc_prefix(docs: &[String]) -> String {
     let d = d.trim();
     if d.is_empty() {
         String::new()
-    } else {
+    } else if d.ends_with(['.', '!', '?', ':']) {
         format!("{d} ")
+    } else {
+        // A doc line without a full stop would run into the next sentence.
+        format!("{d}. ")
     }
 }
 

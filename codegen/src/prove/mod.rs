@@ -48,12 +48,47 @@ pub struct Outcome {
     pub ob: Obligation,
     /// Verdict.
     pub verdict: Verdict,
-    /// One run per solver.
+    /// One run per solver: its best answer over the obligation's encodings.
     pub runs: Vec<Run>,
+    /// Every run of every encoding, with what the replay made of its counterexample.
+    pub attempts: Vec<Attempt>,
     /// The counterexample, if refuted (or offered but not replayed).
     pub cex: Option<Cex>,
     /// What the replay found, or why the verdict is unknown.
     pub note: Option<String>,
+}
+
+/// What one solver said on one encoding of an obligation.
+#[derive(Clone, Debug)]
+pub struct Attempt {
+    /// The encoding (`exact`, `abstracted`, ...; `None` where an obligation has one).
+    pub encoding: Option<&'static str>,
+    /// The run.
+    pub run: Run,
+    /// A counterexample (`sat`) that the replay rejected: an over-approximate encoding's
+    /// spurious model, not a refutation.
+    pub spurious: bool,
+}
+
+/// Progress of a proof, for a command line to show.
+#[derive(Clone, Copy, Debug)]
+pub enum Progress<'a> {
+    /// A solver run finished: `done` of `total`.
+    Runs {
+        /// Runs finished.
+        done: usize,
+        /// All runs.
+        total: usize,
+    },
+    /// Every run of one kind of obligation (overflow, initial, ...) finished.
+    Group {
+        /// The kind.
+        kind: &'a str,
+        /// How many obligations of that kind (counting each encoding).
+        queries: usize,
+        /// Seconds since the proof started.
+        secs: f64,
+    },
 }
 
 /// The proof report of a spec.
@@ -65,6 +100,10 @@ pub struct Report {
     pub outcomes: Vec<Outcome>,
     /// Wall-clock time.
     pub wall_ms: u64,
+    /// Solver processes run at once.
+    pub jobs: usize,
+    /// The runs that check each property's premises are satisfiable (not vacuous).
+    pub witness_runs: Vec<Run>,
 }
 
 impl Report {
@@ -75,7 +114,7 @@ impl Report {
 }
 
 /// Proves every obligation of `plan`.
-pub fn prove(plan: &Plan, cfg: &Config, progress: &mut dyn FnMut(usize, usize)) -> Report {
+pub fn prove(plan: &Plan, cfg: &Config, progress: &mut dyn FnMut(Progress)) -> Report {
     prove_filtered(plan, cfg, None, progress)
 }
 
@@ -84,7 +123,7 @@ pub fn prove_filtered(
     plan: &Plan,
     cfg: &Config,
     only: Option<&str>,
-    progress: &mut dyn FnMut(usize, usize),
+    progress: &mut dyn FnMut(Progress),
 ) -> Report {
     let start = Instant::now();
     let (all, witnesses) = obligations::with_witnesses(plan);
@@ -116,7 +155,34 @@ pub fn prove_filtered(
         obs.get(i)
             .is_some_and(|o| judge(plan, o.clone(), vec![run.clone()]).verdict == Verdict::Refuted)
     };
-    let mut runs = solver::run_all_grouped(&queries, &groups, cfg, progress, &mut confirm);
+    // Runs left per kind of obligation (witnesses count with properties), for the group lines.
+    let kind_of = |qi: usize| obs.get(qi).map_or("property", |o| o.kind.name());
+    let mut left: Vec<(&str, usize, usize)> = Vec::new();
+    for qi in 0..queries.len() {
+        let k = kind_of(qi);
+        match left.iter_mut().find(|e| e.0 == k) {
+            Some(e) => {
+                e.1 += cfg.solvers.len();
+                e.2 += 1;
+            }
+            None => left.push((k, cfg.solvers.len(), 1)),
+        }
+    }
+    let mut on_run = |done: usize, total: usize, qi: usize| {
+        progress(Progress::Runs { done, total });
+        let k = kind_of(qi);
+        if let Some(e) = left.iter_mut().find(|e| e.0 == k) {
+            e.1 -= 1;
+            if e.1 == 0 {
+                progress(Progress::Group {
+                    kind: e.0,
+                    queries: e.2,
+                    secs: start.elapsed().as_secs_f64(),
+                });
+            }
+        }
+    };
+    let mut runs = solver::run_all_grouped(&queries, &groups, cfg, &mut on_run, &mut confirm);
     let witness_runs = runs.split_off(obs.len());
     let mut outcomes: Vec<Outcome> = obs
         .into_iter()
@@ -140,6 +206,7 @@ pub fn prove_filtered(
         }
     }
     let mut outcomes = merge_portfolio(outcomes);
+    let all_witness_runs: Vec<Run> = witness_runs.iter().flatten().cloned().collect();
     for (k, runs) in witnessed.into_iter().zip(witness_runs) {
         if !runs.iter().any(|r| r.answer == Answer::Unsat) {
             continue;
@@ -162,8 +229,13 @@ parameter value meets the `assume`s, so the property says nothing; check its ass
         spec: plan.prog.name.clone(),
         outcomes,
         wall_ms: start.elapsed().as_millis() as u64,
+        jobs: cfg.jobs.max(1),
+        witness_runs: all_witness_runs,
     }
 }
+
+/// The start of the note of an obligation on which two solvers disagree.
+pub const DISAGREE: &str = "SOLVER DISAGREEMENT";
 
 /// Whether `a` and `b` are two encodings of one question.
 fn alternatives(a: &Obligation, b: &Obligation) -> bool {
@@ -214,6 +286,7 @@ fn merge_portfolio(outcomes: Vec<Outcome>) -> Vec<Outcome> {
             }
         }
         let prev = &mut out[k];
+        prev.attempts.extend(o.attempts.iter().cloned());
         if rank(o.verdict) > rank(prev.verdict) {
             prev.verdict = o.verdict;
             prev.cex = o.cex.clone();
@@ -245,17 +318,28 @@ fn judge(plan: &Plan, ob: Obligation, runs: Vec<Run>) -> Outcome {
         Answer::Sat(m) => Some(m.clone()),
         _ => None,
     });
+    let attempts = runs
+        .iter()
+        .map(|r| Attempt {
+            encoding: ob.encoding,
+            run: r.clone(),
+            spurious: false,
+        })
+        .collect();
     let mut out = Outcome {
         ob,
         verdict: Verdict::Unknown,
         runs,
+        attempts,
         cex: None,
         note: None,
     };
     match (unsat, model) {
         (true, None) => out.verdict = Verdict::Proved,
         (true, Some(_)) => {
-            out.note = Some("the solvers disagree (one proved, one refuted): a bug in qloop's encoding or a solver; please report it".into());
+            out.note = Some(format!(
+                "{DISAGREE}: on one encoding one solver proved and another found a model; a bug in qloop's encoding or a solver, please report it"
+            ));
         }
         (false, Some(m)) => {
             let cex = Cex::from_model(&m, &|n| replay::var_is_signed(plan, n));
@@ -269,6 +353,9 @@ fn judge(plan: &Plan, ob: Obligation, runs: Vec<Run>) -> Outcome {
                     out.note = Some(format!(
                         "spurious counterexample (over-approximation): replay says {why}"
                     ));
+                    for a in &mut out.attempts {
+                        a.spurious = matches!(a.run.answer, Answer::Sat(_));
+                    }
                 }
                 Replay::NotApplicable => {}
             }
@@ -307,15 +394,107 @@ fn json_answer(a: &Answer) -> &'static str {
     }
 }
 
+/// Milliseconds as text: `45 ms`, `12.3 s`.
+fn duration_text(ms: u64) -> String {
+    if ms < 10_000 {
+        format!("{ms} ms")
+    } else {
+        format!("{:.1} s", ms as f64 / 1000.0)
+    }
+}
+
+impl Outcome {
+    /// What `solver` said about this obligation, over every encoding it ran, and its total
+    /// time: the proof where it proved one (`proved`), a counterexample that replays
+    /// (`refuted`), otherwise each distinct answer with its encoding (`spurious cex
+    /// (abstracted) + timeout (exact)`: a model of an over-approximation that the replay
+    /// rejected is never shown as `refuted`).
+    pub fn solver_answer(&self, solver: Solver) -> Option<(String, u64, bool)> {
+        let mine: Vec<&Attempt> = self
+            .attempts
+            .iter()
+            .filter(|a| a.run.solver == solver)
+            .collect();
+        if mine.is_empty() {
+            return None;
+        }
+        let total: u64 = mine.iter().map(|a| a.run.millis).sum();
+        let cached = mine.iter().all(|a| a.run.cached);
+        let several = mine.len() > 1;
+        let with_enc = |label: &str, a: &Attempt| match (several, a.encoding) {
+            (true, Some(e)) => format!("{label} ({e})"),
+            _ => label.to_string(),
+        };
+        let label = |a: &Attempt| {
+            if a.spurious {
+                "spurious cex".to_string()
+            } else {
+                answer_name(&a.run.answer)
+            }
+        };
+        let text = if let Some(a) = mine.iter().find(|a| a.run.answer == Answer::Unsat) {
+            with_enc("proved", a)
+        } else if let Some(a) = mine
+            .iter()
+            .find(|a| matches!(a.run.answer, Answer::Sat(_)) && !a.spurious)
+            .filter(|_| self.verdict == Verdict::Refuted)
+        {
+            with_enc("refuted", a)
+        } else {
+            let first = label(mine[0]);
+            if mine.iter().all(|a| label(a) == first) {
+                first
+            } else {
+                let mut parts: Vec<String> = Vec::new();
+                for a in &mine {
+                    let p = with_enc(&label(a), a);
+                    if !parts.contains(&p) {
+                        parts.push(p);
+                    }
+                }
+                parts.join(" + ")
+            }
+        };
+        Some((text, total, cached))
+    }
+
+    /// The longest any one solver spent on this obligation (all its encodings).
+    pub fn slowest_ms(&self) -> u64 {
+        let mut per: Vec<(Solver, u64)> = Vec::new();
+        for a in &self.attempts {
+            match per.iter_mut().find(|p| p.0 == a.run.solver) {
+                Some(p) => p.1 += a.run.millis,
+                None => per.push((a.run.solver, a.run.millis)),
+            }
+        }
+        per.iter().map(|p| p.1).max().unwrap_or(0)
+    }
+}
+
 impl Report {
-    /// The human-readable table.
-    pub fn table(&self, plan: &Plan) -> String {
-        let mut o = String::new();
-        let solvers: Vec<Solver> = self
-            .outcomes
+    /// The solvers of the report, in column order.
+    fn solvers(&self) -> Vec<Solver> {
+        self.outcomes
             .first()
             .map(|x| x.runs.iter().map(|r| r.solver).collect())
-            .unwrap_or_default();
+            .unwrap_or_default()
+    }
+
+    /// One solver's cell of the table.
+    fn cell(x: &Outcome, s: Solver) -> String {
+        x.solver_answer(s).map_or("-".into(), |(text, ms, cached)| {
+            if cached {
+                format!("{text} (cached)")
+            } else {
+                format!("{text} {}", duration_text(ms))
+            }
+        })
+    }
+
+    /// The full table (`qloop prove --verbose`), then the [`Report::summary`].
+    pub fn table(&self, plan: &Plan) -> String {
+        let mut o = String::new();
+        let solvers = self.solvers();
         let mut rows: Vec<Vec<String>> = Vec::new();
         for x in &self.outcomes {
             let line = if x.ob.line > 0 {
@@ -329,20 +508,7 @@ impl Report {
                 x.ob.kind.name().into(),
                 x.verdict.name().into(),
             ];
-            for s in &solvers {
-                r.push(
-                    x.runs
-                        .iter()
-                        .find(|run| run.solver == *s)
-                        .map_or("-".into(), |run| {
-                            if run.cached {
-                                format!("{} (cached)", answer_name(&run.answer))
-                            } else {
-                                format!("{} {} ms", answer_name(&run.answer), run.millis)
-                            }
-                        }),
-                );
-            }
+            r.extend(solvers.iter().map(|s| Self::cell(x, *s)));
             rows.push(r);
         }
         let mut head = vec![
@@ -353,28 +519,93 @@ impl Report {
         ];
         head.extend(solvers.iter().map(|s| s.name().to_string()));
         o.push_str(&crate::report::table(&head, &rows));
-        let proved = self
-            .outcomes
-            .iter()
-            .filter(|x| x.verdict == Verdict::Proved)
-            .count();
+        o.push_str(&self.summary(plan));
+        let _ = writeln!(
+            o,
+            "\nOverflow obligations assume only the state ranges and invariants; with the initial and \
+inductive obligations they hold for every reachable state, by induction over one step, for unbounded time. \
+Inputs are arbitrary bits (step clamps them), except in properties, which assume inputs in range. The obligations lean on each other: whole-program queries take other values' intervals as lemmas, and the integer encodings of properties and invariants rely on no value wrapping, so the spec is proved only when every obligation is. Over-approximate encodings (abstracted products, linear envelopes) can only yield spurious counterexamples, and the replay rejects those."
+        );
+        o
+    }
+
+    /// The summary (`qloop prove`'s default output): the counts, where the time went (each
+    /// solver's total over every run, against the wall time and the parallel jobs), the five
+    /// slowest obligations, and everything not proved with its counterexample.
+    pub fn summary(&self, plan: &Plan) -> String {
+        let mut o = String::new();
+        let solvers = self.solvers();
+        let count = |v: Verdict| self.outcomes.iter().filter(|x| x.verdict == v).count();
         let both = self
             .outcomes
             .iter()
             .filter(|x| {
                 x.verdict == Verdict::Proved
-                    && x.runs.len() > 1
-                    && x.runs.iter().all(|r| r.answer == Answer::Unsat)
+                    && solvers.len() > 1
+                    && solvers.iter().all(|s| {
+                        x.attempts
+                            .iter()
+                            .any(|a| a.run.solver == *s && a.run.answer == Answer::Unsat)
+                    })
             })
             .count();
         let _ = writeln!(
             o,
-            "\n{} obligations: {proved} proved ({both} by every solver), {} refuted, {} unknown; wall {:.2} s",
+            "\n{} obligations: {} proved ({both} by every solver), {} refuted, {} unknown; wall {:.2} s",
             self.outcomes.len(),
-            self.outcomes.iter().filter(|x| x.verdict == Verdict::Refuted).count(),
-            self.outcomes.iter().filter(|x| x.verdict == Verdict::Unknown).count(),
+            count(Verdict::Proved),
+            count(Verdict::Refuted),
+            count(Verdict::Unknown),
             self.wall_ms as f64 / 1000.0
         );
+        let per: Vec<String> = solvers
+            .iter()
+            .map(|s| {
+                let ms: u64 = self
+                    .outcomes
+                    .iter()
+                    .flat_map(|x| &x.attempts)
+                    .map(|a| &a.run)
+                    .chain(&self.witness_runs)
+                    .filter(|r| r.solver == *s)
+                    .map(|r| r.millis)
+                    .sum();
+                format!("{} {:.2} s", s.name(), ms as f64 / 1000.0)
+            })
+            .collect();
+        let runs = self
+            .outcomes
+            .iter()
+            .map(|x| x.attempts.len())
+            .sum::<usize>();
+        let wit_ms: u64 = self.witness_runs.iter().map(|r| r.millis).sum();
+        let _ = writeln!(
+            o,
+            "solver time: {} over {runs} runs and {} premise (vacuity) checks taking {:.2} s; \
+             {} parallel job(s), so the wall time is about the larger of the total over the jobs \
+             and the longest single run",
+            per.join(", "),
+            self.witness_runs.len(),
+            wit_ms as f64 / 1000.0,
+            self.jobs
+        );
+        let mut slow: Vec<&Outcome> = self.outcomes.iter().collect();
+        slow.sort_by_key(|x| std::cmp::Reverse(x.slowest_ms()));
+        let _ = writeln!(o, "slowest:");
+        for x in slow.iter().take(5) {
+            let cells: Vec<String> = solvers
+                .iter()
+                .map(|s| format!("{} {}", s.name(), Self::cell(x, *s)))
+                .collect();
+            let _ = writeln!(
+                o,
+                "  {:<9} {} (line {}): {}",
+                x.ob.kind.name(),
+                x.ob.name,
+                x.ob.line,
+                cells.join("; ")
+            );
+        }
         for x in self
             .outcomes
             .iter()
@@ -387,6 +618,9 @@ impl Report {
                 x.ob.name,
                 x.ob.line
             );
+            for s in &solvers {
+                let _ = writeln!(o, "  {}: {}", s.name(), Self::cell(x, *s));
+            }
             if let Some(n) = &x.note {
                 let _ = writeln!(o, "  {n}");
             }
@@ -396,12 +630,6 @@ impl Report {
                 }
             }
         }
-        let _ = writeln!(
-            o,
-            "\nOverflow obligations assume only the state ranges and invariants; with the initial and \
-inductive obligations they hold for every reachable state, by induction over one step, for unbounded time. \
-Inputs are arbitrary bits (step clamps them), except in properties, which assume inputs in range. The obligations lean on each other: whole-program queries take other values' intervals as lemmas, and the integer encodings of properties and invariants rely on no value wrapping, so the spec is proved only when every obligation is. Over-approximate encodings (abstracted products, linear envelopes) can only yield spurious counterexamples, and the replay rejects those."
-        );
         o
     }
 
@@ -417,8 +645,11 @@ Inputs are arbitrary bits (step clamps them), except in properties, which assume
                 m.insert("verdict".into(), x.verdict.name().into());
                 m.insert("line".into(), x.ob.line.into());
                 for r in &x.runs {
-                    m.insert(r.solver.name().into(), json_answer(&r.answer).into());
-                    m.insert(format!("{}_ms", r.solver.name()), r.millis.into());
+                    let (text, ms, _) = x
+                        .solver_answer(r.solver)
+                        .unwrap_or_else(|| (json_answer(&r.answer).into(), r.millis, false));
+                    m.insert(r.solver.name().into(), text.into());
+                    m.insert(format!("{}_ms", r.solver.name()), ms.into());
                 }
                 if let Some(n) = &x.note {
                     m.insert("note".into(), n.clone().into());
@@ -433,5 +664,91 @@ Inputs are arbitrary bits (step clamps them), except in properties, which assume
             "obligations": obs,
         });
         serde_json::to_string_pretty(&v).unwrap_or_default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A solver disagreement on one encoding (one proves, the other finds a model) is never
+    /// a verdict: the obligation is unknown, the spec is not proved (so `qloop prove` exits
+    /// 1), and the summary says SOLVER DISAGREEMENT with both answers.
+    #[test]
+    fn a_solver_disagreement_fails_loudly() {
+        let src = include_str!("../../../verified/specs/acc_fixed_gain.qloop");
+        let plan = crate::compile_str(src, &crate::Target::default()).unwrap();
+        let ob = obligations::obligations(&plan)
+            .into_iter()
+            .next()
+            .expect("an obligation");
+        let run = |solver, answer| Run {
+            solver,
+            answer,
+            millis: 5,
+            cached: false,
+        };
+        let runs = vec![
+            run(Solver::Z3, Answer::Unsat),
+            run(Solver::Cvc5, Answer::Sat(Vec::new())),
+        ];
+        let out = judge(&plan, ob, runs);
+        assert_eq!(out.verdict, Verdict::Unknown);
+        assert!(out.note.as_deref().unwrap_or("").starts_with(DISAGREE));
+        let report = Report {
+            spec: "acc_fixed_gain".into(),
+            outcomes: vec![out],
+            wall_ms: 10,
+            jobs: 2,
+            witness_runs: Vec::new(),
+        };
+        assert!(!report.proved());
+        let s = report.summary(&plan);
+        assert!(s.contains("UNKNOWN: ") && s.contains(DISAGREE), "{s}");
+        assert!(
+            s.contains("z3: proved") && s.contains("cvc5: refuted"),
+            "{s}"
+        );
+    }
+
+    /// A model of an over-approximate encoding that the replay rejects shows as `spurious
+    /// cex`, never as `refuted`, in the solver's column; with a proof in another encoding the
+    /// column says `proved`, with the encoding.
+    #[test]
+    fn spurious_models_are_not_shown_as_refutations() {
+        let attempt = |encoding, answer, spurious| Attempt {
+            encoding: Some(encoding),
+            run: Run {
+                solver: Solver::Z3,
+                answer,
+                millis: 100,
+                cached: false,
+            },
+            spurious,
+        };
+        let src = include_str!("../../../verified/specs/acc_fixed_gain.qloop");
+        let plan = crate::compile_str(src, &crate::Target::default()).unwrap();
+        let ob = obligations::obligations(&plan).into_iter().next().unwrap();
+        let mut o = Outcome {
+            ob,
+            verdict: Verdict::Unknown,
+            runs: Vec::new(),
+            attempts: vec![
+                attempt("abstracted products", Answer::Sat(Vec::new()), true),
+                attempt("exact terms", Answer::Timeout, false),
+            ],
+            cex: None,
+            note: None,
+        };
+        let (text, ms, _) = o.solver_answer(Solver::Z3).unwrap();
+        assert_eq!(
+            text,
+            "spurious cex (abstracted products) + timeout (exact terms)"
+        );
+        assert_eq!(ms, 200);
+        o.attempts[1].run.answer = Answer::Unsat;
+        o.verdict = Verdict::Proved;
+        let (text, _, _) = o.solver_answer(Solver::Z3).unwrap();
+        assert_eq!(text, "proved (exact terms)");
     }
 }

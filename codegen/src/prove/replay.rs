@@ -373,7 +373,210 @@ pub fn describe(plan: &Plan, ob: &Obligation, cex: &Cex) -> Vec<String> {
             .entry(n.clone())
             .or_insert_with(|| format!("operand {n} = raw {v} ({w} bits)"));
     }
-    by_name.into_values().collect()
+    let mut lines: Vec<String> = by_name.into_values().collect();
+    lines.extend(explain(plan, ob, cex));
+    lines
+}
+
+/// The pre-step slots of a counterexample: inputs and states from the model.
+fn pre_slots(plan: &Plan, cex: &Cex) -> Vec<i128> {
+    let prog = &plan.prog;
+    prog.signals
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let id = SigId(i);
+            match s.kind {
+                SigKind::Input => cex.get(&super::smt::input_var(prog, id)).unwrap_or(0),
+                SigKind::State => cex
+                    .get(&super::smt::pre_var(prog, id))
+                    .unwrap_or_else(|| plan.raw_init(id)),
+                _ => 0,
+            }
+        })
+        .collect()
+}
+
+/// What the step does on a counterexample (a property's or invariant's, not a local query's):
+/// the post-state and outputs from the plan interpreter, in units and raw, then each `assume`
+/// and each conjunct of each `ensure` (or the invariant's conjuncts) evaluated exactly, with
+/// both sides of each comparison.
+fn explain(plan: &Plan, ob: &Obligation, cex: &Cex) -> Vec<String> {
+    let prog = &plan.prog;
+    let k = match ob.goal {
+        Goal::Property(k) => Some(k),
+        Goal::Invariant(_) if ob.kind != super::obligations::Kind::Initial => None,
+        _ => return Vec::new(),
+    };
+    let pre = pre_slots(plan, cex);
+    let mut post = pre.clone();
+    if step_fixed(plan, &mut post).is_err() {
+        return vec![
+            "after the step: a value leaves its proved interval (see the overflow obligations)"
+                .into(),
+        ];
+    }
+    let mut out = Vec::new();
+    for (i, s) in prog.signals.iter().enumerate() {
+        if matches!(s.kind, SigKind::State | SigKind::Output) {
+            let q = plan.format(SigId(i));
+            let what = if s.kind == SigKind::State {
+                format!("state next({})", s.name)
+            } else {
+                format!("output {}", s.name)
+            };
+            out.push(format!(
+                "after the step: {what} = {} {} (raw {}, {q})",
+                q.value(post[i]),
+                s.unit.as_deref().unwrap_or(""),
+                post[i]
+            ));
+        }
+    }
+    let params: Vec<Q> = match k {
+        Some(k) => param_grids(plan, k)
+            .iter()
+            .map(|g| Q {
+                raw: BigInt::from(cex.get(&g.var).unwrap_or(0)),
+                frac: g.frac,
+            })
+            .collect(),
+        None => Vec::new(),
+    };
+    let f = Frame {
+        plan,
+        pre: &pre,
+        post: &post,
+        params: &params,
+    };
+    let names: Vec<String> = k
+        .map(|k| {
+            prog.properties[k]
+                .params
+                .iter()
+                .map(|p| p.name.clone())
+                .collect()
+        })
+        .unwrap_or_default();
+    let mut clause = |role: &str, c: &PCond| {
+        let mut parts = Vec::new();
+        conjuncts(c, &mut parts);
+        for part in parts {
+            let value = match f.cond(part) {
+                Some(true) => "true",
+                Some(false) => "FALSE",
+                None => "not exactly evaluable",
+            };
+            let sides = match part {
+                PCond::Cmp(_, a, b) => match (f.expr(a), f.expr(b)) {
+                    (Some(x), Some(y)) => format!(
+                        " ({} vs {})",
+                        crate::report::g(q_value(&x)),
+                        crate::report::g(q_value(&y))
+                    ),
+                    _ => String::new(),
+                },
+                _ => String::new(),
+            };
+            out.push(format!(
+                "{role} `{}`: {value}{sides}",
+                pcond_text(prog, &names, part)
+            ));
+        }
+    };
+    match (k, &ob.goal) {
+        (Some(k), _) => {
+            let p = &prog.properties[k];
+            for a in &p.assumes {
+                clause("assume", a);
+            }
+            for e in &p.ensures {
+                clause("ensure", e);
+            }
+        }
+        (None, Goal::Invariant(i)) => {
+            let f2 = Frame {
+                plan,
+                pre: &post,
+                post: &post,
+                params: &[],
+            };
+            let mut parts = Vec::new();
+            conjuncts(&prog.invariants[*i].cond, &mut parts);
+            for part in parts {
+                let v = match f2.cond(part) {
+                    Some(true) => "true",
+                    Some(false) => "FALSE",
+                    None => "not exactly evaluable",
+                };
+                out.push(format!(
+                    "invariant after the step `{}`: {v}",
+                    pcond_text(prog, &names, part)
+                ));
+            }
+        }
+        _ => {}
+    }
+    out
+}
+
+/// The conjuncts of `c` (`a && b && c` → a, b, c).
+fn conjuncts<'a>(c: &'a PCond, out: &mut Vec<&'a PCond>) {
+    match c {
+        PCond::And(a, b) => {
+            conjuncts(a, out);
+            conjuncts(b, out);
+        }
+        other => out.push(other),
+    }
+}
+
+/// An exact value as f64 (for display).
+fn q_value(q: &Q) -> f64 {
+    q.raw.to_string().parse::<f64>().unwrap_or(f64::NAN) * 2f64.powi(-q.frac)
+}
+
+/// A property condition as spec-like text.
+fn pcond_text(prog: &qloop_core::ir::Program, params: &[String], c: &PCond) -> String {
+    match c {
+        PCond::Cmp(op, a, b) => format!(
+            "{} {} {}",
+            pexpr_text(prog, params, a),
+            op.symbol(),
+            pexpr_text(prog, params, b)
+        ),
+        PCond::And(a, b) => format!(
+            "({}) && ({})",
+            pcond_text(prog, params, a),
+            pcond_text(prog, params, b)
+        ),
+        PCond::Or(a, b) => format!(
+            "({}) || ({})",
+            pcond_text(prog, params, a),
+            pcond_text(prog, params, b)
+        ),
+        PCond::Not(a) => format!("!({})", pcond_text(prog, params, a)),
+    }
+}
+
+/// A property expression as spec-like text.
+fn pexpr_text(prog: &qloop_core::ir::Program, params: &[String], e: &PExpr) -> String {
+    let t = |x: &PExpr| pexpr_text(prog, params, x);
+    match e {
+        PExpr::Const(c) => crate::report::g(*c),
+        PExpr::Sig(id, When::Post) if prog.sig(*id).kind == SigKind::State => {
+            format!("next({})", prog.sig(*id).name)
+        }
+        PExpr::Sig(id, _) => prog.sig(*id).name.clone(),
+        PExpr::Param(i) => params.get(*i).cloned().unwrap_or_else(|| format!("p{i}")),
+        PExpr::Neg(a) => format!("-{}", t(a)),
+        PExpr::Abs(a) => format!("abs({})", t(a)),
+        PExpr::Add(a, b) => format!("({} + {})", t(a), t(b)),
+        PExpr::Sub(a, b) => format!("({} - {})", t(a), t(b)),
+        PExpr::Mul(a, b) => format!("{} * {}", t(a), t(b)),
+        PExpr::Min(a, b) => format!("min({}, {})", t(a), t(b)),
+        PExpr::Max(a, b) => format!("max({}, {})", t(a), t(b)),
+    }
 }
 
 /// Evaluates property `k` exactly on raw pre-step values (inputs and states, by signal id),

@@ -62,7 +62,7 @@ and in the G-code program: M52 P1 (adaptive feed on) ... M52 P0 (off).
 """;
 
 pin in float spindle_load "Measured main cutting force F_c (force sensor and ADC, scaled to kN). The spec's input fc, declared range [0, 5] kN.";
-pin out float adaptive_feed "Feed override 0..1 = feed * 0.2 (feed over its range maximum 5 mm/s), clamped; net to motion.adaptive-feed.";
+pin out float adaptive_feed "Feed override 0..1 = feed * 0.2 (1 at the range maximum of feed (5 mm/s)), clamped; net to motion.adaptive-feed.";
 pin out float feed "Feedrate command to the CNC interpolator (002 eq. 9 with K_f = 1). The spec's output feed, range [0.050048, 5] mm/s.";
 pin out s32 feed_raw "Raw fixed-point feed, Q(i16, 12): feed * 2^12.";
 pin out s32 spindle_load_raw "Raw fixed-point input after conversion, Q(i16, 12): floor(spindle-load * 2^12), saturated to [0, 20480].";
@@ -353,9 +353,9 @@ static const double qloop_in_scale[QLOOP_N_IN] = { 0x1p12 }; /* fc */
 static const int32_t qloop_in_min[QLOOP_N_IN] = { 0 }; /* fc */
 static const int32_t qloop_in_max[QLOOP_N_IN] = { 20480 }; /* fc */
 /* output j: value = raw * qloop_out_scale[j] (exact); the adaptive feed is output 0's value
- * times qloop_override_scale, the reciprocal of its range maximum */
+ * times qloop_override_scale (see below) */
 static const double qloop_out_scale[QLOOP_N_OUT] = { 0x1p-12 }; /* feed */
-static const double qloop_override_scale = 0.2; /* 1 / 5, the range maximum of feed */
+static const double qloop_override_scale = 0.2; /* 1 / 5: the range maximum of feed (5 mm/s) */
 
 static void qloop_step_raw(qloop_state *s, const int32_t *in_raw, int32_t *out_raw)
 {

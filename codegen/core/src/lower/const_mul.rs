@@ -15,6 +15,20 @@ use crate::diag::{Diag, Result};
 use crate::qformat::{pow2, IntTy, QFormat};
 use proc_macro2::Span;
 
+/// How much looser (relatively) a folded chain of constant factors' error bound may be than
+/// the sequence's: 1 %, far below what either bound means for a controller, for a constant
+/// multiplication with fewer adders and fraction bits.
+pub const CHAIN_SLACK: f64 = 0.01;
+
+/// How much finer than usual to quantise a constant (a folded chain of constants, see
+/// [`Lowerer::mul_const_chain`]): extra fraction bits, and the constant's own distance from
+/// the real product it stands for.
+#[derive(Clone, Copy, Debug, Default)]
+struct Fine {
+    extra: i32,
+    own: f64,
+}
+
 /// A constant factor quantised for one product: `c ≈ m · 2^-k`, the product's binary point
 /// `frac`, and the product's one-step error bound.
 struct ConstFactor {
@@ -35,7 +49,92 @@ impl Lowerer<'_> {
         span: Span,
         out: &mut Vec<LStmt>,
     ) -> Result<ValId> {
-        let (x, f) = self.const_factor(x, c, span, out)?;
+        self.mul_const_fine(x, c, Fine::default(), name, claim, span, out)
+    }
+
+    /// `(y · c₁) · c₂` (a gain, then a unit conversion): one constant multiplication by
+    /// `c₁·c₂` where that costs no more adders and its quantisation error is no larger than
+    /// the two in sequence (estimated before emitting: the bounds printed are computed on
+    /// what is emitted either way), else the two in sequence, as written.
+    pub(super) fn mul_const_chain(
+        &mut self,
+        y: ValId,
+        (c1, name1): (f64, Option<String>),
+        (c2, name2): (f64, Option<String>),
+        spans: (Span, Span),
+        out: &mut Vec<LStmt>,
+    ) -> Result<ValId> {
+        if let Some(fine) = self.chain_pays(y, c1, c2) {
+            return self.mul_const_fine(y, c1 * c2, fine, None, None, spans.1, out);
+        }
+        let t = self.mul_const(y, c1, name1, None, spans.0, out)?;
+        self.mul_const(t, c2, name2, None, spans.1, out)
+    }
+
+    /// Whether folding `(y · c₁) · c₂` pays, and how finely to quantise the product constant:
+    /// the fold must need no more adders and no more fraction bits than the sequence, and
+    /// its one-step error bound must be within [`CHAIN_SLACK`] of the sequence's;
+    /// `extra` fraction bits beyond `y`'s (so that its error, like the sequence's, scales with
+    /// a small `c₂`), and the folded constant's own rounding `|c₁·c₂ − fl(c₁·c₂)|`.
+    fn chain_pays(&self, y: ValId, c1: f64, c2: f64) -> Option<Fine> {
+        let yv = self.v(y);
+        let my = err_bound::magnitude(yv.lo.abs().max(yv.hi.abs()), yv.frac);
+        let c = c1 * c2;
+        // The fold is checked on y's grid (`factor_rounding`): it must not vanish there.
+        if c1 == 0.0 || c2 == 0.0 || my == 0.0 || !c.is_finite() || c.abs() * my <= pow2(-yv.frac) {
+            return None;
+        }
+        // The sequence, as `mul_const` would quantise it.
+        let (m1, k1) = quantise(c1, yv.frac, my)?;
+        let q1 = m1 as f64 * pow2(-k1);
+        let (m2, k2) = quantise(c2, yv.frac + k1, my * q1.abs())?;
+        let q2 = m2 as f64 * pow2(-k2);
+        let seq_adders = shift_add::best(m1).adders() + shift_add::best(m2).adders();
+        // The sequence's error bound (y's error scaled, and both quantisations; the
+        // roundings it may need to stay within 64 bits only add to it).
+        let seq_err = err_bound::add(
+            err_bound::mul(err_bound::mul(q1.abs(), q2.abs()), yv.err),
+            err_bound::add(
+                err_bound::mul(err_bound::mul(err_bound::dist(q1, c1), my), q2.abs()),
+                err_bound::mul(err_bound::mul(err_bound::dist(q2, c2), my), q1.abs()),
+            ),
+        );
+        // The fold: the coarsest grid (at most as many bits finer than y's as c₂ is small)
+        // on which its quantisation error is no larger than the sequence's.
+        let own = c1.mul_add(c2, -c).abs();
+        let most = (-c2.abs().log2()).ceil().max(0.0) as i32;
+        let ym = yv.lo.abs().max(yv.hi.abs());
+        (0..=most).find_map(|extra| {
+            let (m, k) = quantise(c, yv.frac + extra, my)?;
+            let q = m as f64 * pow2(-k);
+            let fold_err = err_bound::add(
+                err_bound::mul(q.abs(), yv.err),
+                err_bound::mul(err_bound::add(err_bound::dist(q, c), own), my),
+            );
+            let fits = 128 - (ym * m.abs()).leading_zeros() + 2 <= 64;
+            (fold_err <= seq_err * (1.0 + CHAIN_SLACK)
+                && fits
+                && k <= k1 + k2
+                && shift_add::best(m).adders() <= seq_adders)
+                .then_some(Fine { extra, own })
+        })
+    }
+
+    /// [`Self::mul_const`] with the constant quantised `fine.extra` bits finer than `x`'s
+    /// grid, and `fine.own` (the constant's distance from the real value it stands for)
+    /// counted in the error bound.
+    #[allow(clippy::too_many_arguments)]
+    fn mul_const_fine(
+        &mut self,
+        x: ValId,
+        c: f64,
+        fine: Fine,
+        name: Option<String>,
+        claim: Option<(f64, f64)>,
+        span: Span,
+        out: &mut Vec<LStmt>,
+    ) -> Result<ValId> {
+        let (x, f) = self.const_factor(x, c, fine, span, out)?;
         let xv = self.v(x).clone();
         if f.m == 0 {
             // c = 0, or x is identically 0: the product is exactly 0.
@@ -71,6 +170,7 @@ impl Lowerer<'_> {
         &mut self,
         x: ValId,
         c: f64,
+        fine: Fine,
         span: Span,
         out: &mut Vec<LStmt>,
     ) -> Result<(ValId, ConstFactor)> {
@@ -83,12 +183,17 @@ impl Lowerer<'_> {
         let (m, k) = if c == 0.0 || mx == 0.0 {
             (0, 0)
         } else {
-            quantise(c, xv.frac, mx).ok_or_else(|| too_wide_product(c, span))?
+            quantise(c, xv.frac + fine.extra, mx)
+                .or_else(|| quantise(c, xv.frac, mx))
+                .ok_or_else(|| too_wide_product(c, span))?
         };
         let q = m as f64 * pow2(-k);
         let err = err_bound::add(
             err_bound::mul(q.abs(), xv.err),
-            err_bound::mul(err_bound::add(mx, xv.err), err_bound::dist(q, c)),
+            err_bound::mul(
+                err_bound::add(mx, xv.err),
+                err_bound::add(err_bound::dist(q, c), fine.own),
+            ),
         );
         let frac = xv.frac + k;
         Ok((x, ConstFactor { m, k, frac, err }))

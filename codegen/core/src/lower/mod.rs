@@ -953,6 +953,37 @@ impl<'a> Lowerer<'a> {
     ) -> Result<ValId> {
         match (a, b) {
             (Expr::Const { value, name, .. }, x) | (x, Expr::Const { value, name, .. }) => {
+                // `(y · c₁) · c₂`: perhaps one constant multiplication (`mul_const_chain`).
+                if let Expr::Mul(p, q, inner) = x {
+                    if let (
+                        Expr::Const {
+                            value: c1,
+                            name: n1,
+                            ..
+                        },
+                        y,
+                    )
+                    | (
+                        y,
+                        Expr::Const {
+                            value: c1,
+                            name: n1,
+                            ..
+                        },
+                    ) = (&**p, &**q)
+                    {
+                        if !matches!(y, Expr::Const { .. }) {
+                            let yv = self.expr(y, ctx, out)?;
+                            return self.mul_const_chain(
+                                yv,
+                                (*c1, n1.clone()),
+                                (*value, name.clone()),
+                                (*inner, span),
+                                out,
+                            );
+                        }
+                    }
+                }
                 let xv = self.expr(x, ctx, out)?;
                 self.mul_const(xv, *value, name.clone(), None, span, out)
             }
@@ -1364,5 +1395,38 @@ mod tests {
         );
         let e = crate::compile_str(&src, &Target::default()).unwrap_err();
         assert!(e.message.contains("more than 64 bits"), "{}", e.message);
+    }
+
+    /// A gain times a unit conversion, `(f·n · 157.08) · (1/60000)` (issue 15's power
+    /// estimate), becomes one constant multiplication by their product: one network with
+    /// fewer adders than the two (12 + 8 before), and an error bound within 1 % of the two in
+    /// sequence; a chain whose fold would lose precision (`0.333333 · s · 1e-6`, where only
+    /// the second factor's fine grid keeps the product exact) stays a sequence.
+    #[test]
+    fn a_chain_of_constant_factors_becomes_one_where_the_bound_allows() {
+        let spec = |body: &str| {
+            format!(
+                "controller c {{ period 0.1 \"s\"; word 16; input f: [0.0, 5.0]; \
+                 input n: [100.0, 1000.0]; input s: [-1000.0, 1000.0]; \
+                 state ff: [0.0, 5.0] = 0.0; output y; step {{ {body} }} }}"
+            )
+        };
+        let plan = compile_str(
+            &spec("ff += 0.5 * (f - ff); y = ff * n * 157.07963 * 0.000016666666666666667;"),
+            &Target::default(),
+        )
+        .expect("compiles");
+        // ff carries the filter's rounding error, which the fold's quantisation adds ≤ 1 % to.
+        let m = plan
+            .mults
+            .iter()
+            .find(|m| m.constant != 0.5)
+            .expect("the folded product");
+        assert_eq!(plan.mults.len(), 2, "{:?}", plan.mults);
+        assert_eq!(m.constant, 157.07963 * 0.000016666666666666667);
+        assert!(m.adders < 20, "{} adders", m.adders);
+        let plan = compile_str(&spec("y = 0.333333 * s * 0.000001;"), &Target::default())
+            .expect("compiles");
+        assert_eq!(plan.mults.len(), 2, "{:?}", plan.mults);
     }
 }

@@ -116,12 +116,13 @@ pub(super) fn summarize(
     let plan = a.plan;
     let t = &plan.target;
     let mut o = format!(
-        "qloop bench: spec `{}` on target `{}` ({}), {} steps\nmethod: {}\n\n",
+        "qloop bench: spec `{}` on target `{}` ({}), {} steps\nmethod: {}\n{}\n\n",
         plan.prog.name,
         t.name,
         t.about,
         a.steps,
-        pf.method()
+        pf.method(),
+        super::variants::STIMULUS_TEXT
     );
     table(&r, &mut o);
     let identical = outputs(&r, &mut o);

@@ -54,6 +54,12 @@ pub(super) struct Variant {
     pub(super) outputs: Vec<(String, OutKind)>,
 }
 
+/// What [`stimulus`] drives, for the bench report.
+pub(super) const STIMULUS_TEXT: &str = "inputs: every variant gets the same scripted sequence per \
+input, as a fraction of its declared range: 10 % of the steps below, at and just above the \
+range's start (an air cut for a force), 50 % at held levels 4, 20, 30, 50, 80, 30 %, 25 % a \
+ramp to 110 %, 15 % a ramp back down; input k is shifted by 0.37·k of the script";
+
 /// The scripted physical value of an input with declared range `[lo, hi]` at each step:
 /// below the range, its start and just above it (an air cut for a force), then levels held
 /// across the range (4 % = just above a force's air-cut threshold, 20, 30, 50, 80, 30 %),

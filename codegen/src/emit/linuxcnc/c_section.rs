@@ -101,7 +101,7 @@ pub(super) fn c_section(plan: &Plan, l: &Layout) -> String {
     let _ = writeln!(
         o,
         "/* output j: value = raw * qloop_out_scale[j] (exact); the adaptive feed is output \
-         0's value\n * times qloop_override_scale, the reciprocal of its range maximum */"
+         0's value\n * times qloop_override_scale (see below) */"
     );
     let _ = writeln!(
         o,
@@ -110,10 +110,10 @@ pub(super) fn c_section(plan: &Plan, l: &Layout) -> String {
     );
     let _ = writeln!(
         o,
-        "static const double qloop_override_scale = {}; /* 1 / {}, the range maximum of {} */\n",
+        "static const double qloop_override_scale = {}; /* 1 / {}: {} */\n",
         double_c(l.override_scale),
         g(l.full_scale),
-        p.sig(l.outputs[0].id).name
+        l.scale_why
     );
     let _ = writeln!(
         o,

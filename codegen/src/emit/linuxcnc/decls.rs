@@ -66,7 +66,6 @@ fn description(plan: &Plan, l: &Layout, o: &mut String) {
 fn notes(plan: &Plan, l: &Layout, o: &mut String) {
     let p = &plan.prog;
     let first_out = &l.outputs[0];
-    let fo = p.sig(first_out.id);
     let _ = writeln!(
         o,
         "notes \"\"\"\nInput conversion (float to raw, the spec's rounding mode `{}`):\nraw = {}, \
@@ -117,15 +116,12 @@ fn notes(plan: &Plan, l: &Layout, o: &mut String) {
     let _ = writeln!(
         o,
         "\\\\fBadaptive-feed\\\\fR = {} * {}, clamped to [0, 1]:\n{} is 1/{}, the reciprocal of \
-         the range maximum of {} ({}{}), rounded to a double\n(a product: the component \
-         divides nowhere).\n",
+         {}, rounded to a double\n(a product: the component divides nowhere).\n",
         names::dashed(&first_out.hal),
         double_c(l.override_scale),
         double_c(l.override_scale),
         g(l.full_scale),
-        fo.name,
-        g(l.full_scale),
-        unit(&fo.unit)
+        l.scale_why
     );
     let _ = writeln!(
         o,
@@ -173,7 +169,6 @@ fn examples(plan: &Plan, l: &Layout, o: &mut String) {
 fn pins(plan: &Plan, l: &Layout, o: &mut String) {
     let p = &plan.prog;
     let first_out = &l.outputs[0];
-    let fo = p.sig(first_out.id);
     let range = |id: SigId| format!("{}{}", signal_range_text(plan, id), unit(&p.sig(id).unit));
     for i in &l.inputs {
         let s = p.sig(i.id);
@@ -193,13 +188,10 @@ fn pins(plan: &Plan, l: &Layout, o: &mut String) {
         o,
         "pin out float adaptive_feed {};",
         names::string(&format!(
-            "Feed override 0..1 = {} * {} ({} over its range maximum {}{}), clamped; net to \
-             motion.adaptive-feed.",
+            "Feed override 0..1 = {} * {} (1 at {}), clamped; net to motion.adaptive-feed.",
             names::dashed(&first_out.hal),
             double_c(l.override_scale),
-            names::dashed(&first_out.hal),
-            g(l.full_scale),
-            unit(&fo.unit)
+            l.scale_why
         ))
     );
     for out in &l.outputs {

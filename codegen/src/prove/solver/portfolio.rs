@@ -23,7 +23,13 @@ pub fn run_all(
     progress: &mut dyn FnMut(usize, usize),
 ) -> Vec<Vec<Run>> {
     let groups: Vec<usize> = (0..queries.len()).collect();
-    run_all_grouped(queries, &groups, cfg, progress, &mut |_, _| false)
+    run_all_grouped(
+        queries,
+        &groups,
+        cfg,
+        &mut |done, total, _| progress(done, total),
+        &mut |_, _| false,
+    )
 }
 
 /// Like [`run_all`], where `groups[i]` names the group of query `i`: queries of one group
@@ -31,6 +37,7 @@ pub fn run_all(
 /// that solver's runs on the group's other queries are cancelled ([`Answer::Cancelled`]);
 /// the other solvers go on. Groups of one query run every solver to the end.
 ///
+/// `progress(done, total, i)` is called after each finished run, `i` the run's query.
 /// `confirm(i, run)` is called (on the calling thread) for each `sat` answer to query `i`;
 /// when it returns true (the counterexample replays: the obligation is refuted) every other
 /// run of the group is cancelled, for every solver.
@@ -38,7 +45,7 @@ pub fn run_all_grouped(
     queries: &[Query],
     groups: &[usize],
     cfg: &Config,
-    progress: &mut dyn FnMut(usize, usize),
+    progress: &mut dyn FnMut(usize, usize, usize),
     confirm: &mut dyn FnMut(usize, &Run) -> bool,
 ) -> Vec<Vec<Run>> {
     let solvers = &cfg.solvers;
@@ -55,7 +62,7 @@ pub fn run_all_grouped(
         }
         slots[qi][si] = Some(run);
         done += 1;
-        progress(done, total);
+        progress(done, total, qi);
     });
     slots
         .into_iter()
@@ -449,7 +456,7 @@ mod tests {
             &[easy, hard.clone()],
             &[0, 0],
             &cfg,
-            &mut |_, _| {},
+            &mut |_, _, _| {},
             &mut |_, _| false,
         );
         assert_eq!(runs[0][0].answer, Answer::Unsat);
@@ -474,7 +481,7 @@ mod tests {
                 solvers: vec![Solver::Z3, Solver::Cvc5],
                 ..cfg
             },
-            &mut |_, _| {},
+            &mut |_, _, _| {},
             &mut |i, run| {
                 confirmed.push((i, run.solver));
                 true
