@@ -111,6 +111,45 @@ fn a_further_input_reads_the_plants_channel() {
     assert!(n_in.contains(&500.0) && n_in.contains(&300.0), "{n_in:?}");
 }
 
+/// A spec in newtons on the turning plant (which measures kN): the measurement is converted
+/// to N for the controller, and the reference and the metrics are in N too (the force settles
+/// at 1250 N, not at 1.25).
+#[test]
+fn a_spec_in_other_units_is_converted_and_measured_in_its_own() {
+    let spec = tmp("newtons.qloop");
+    std::fs::write(
+        &spec,
+        "controller in_newtons {\n    period 0.1 \"s\";\n    input fc: [0.0, 5000.0] \"N\";\n    \
+         #[reference]\n    param FR: 1250.0 \"N\";\n    const KC: 0.00025 \"(mm/s)/N\";\n    \
+         state u: [0.05, 5.0] \"mm/s\" = 0.5;\n    output feed \"mm/s\";\n    \
+         step { u += KC * (FR - fc); feed = u; }\n}\n",
+    )
+    .unwrap();
+    let dir = tmp("sim-newtons");
+    let (code, out, err) = sim(spec.to_str().unwrap(), &dir, &["--check"]);
+    assert_eq!(code, Some(0), "{out}{err}");
+    assert!(
+        out.contains("reference: the spec's #[reference] param FR = 1250 N")
+            && out.contains("the plant's kN is converted to the spec's N (×1000)"),
+        "{out}"
+    );
+    let (t, fc) = (column(&dir, "t"), column(&dir, "fc"));
+    let last: Vec<f64> = t
+        .iter()
+        .zip(&fc)
+        .filter(|(t, _)| **t >= 13.0 && **t < 16.0)
+        .map(|(_, f)| *f)
+        .collect();
+    let mean = last.iter().sum::<f64>() / last.len() as f64;
+    assert!((mean - 1250.0).abs() < 10.0, "mean force {mean} N");
+    let row = out
+        .lines()
+        .find(|l| l.starts_with("| 1.0–16.0 | fixed | yes"))
+        .unwrap_or_else(|| panic!("{out}"));
+    let ss: f64 = row.split('|').nth(4).unwrap().trim().parse().unwrap();
+    assert!((ss - (mean - 1250.0)).abs() < 2.0, "{row}: mean {mean}");
+}
+
 /// `--check` turns an unstable loop into exit status 1; without it the run reports UNSTABLE
 /// and succeeds. The fixed gain 1 (mm/s)/kN gives K = 3.8 at 6 mm, far past the plant's 1.35.
 #[test]

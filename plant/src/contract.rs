@@ -111,12 +111,17 @@ impl Default for Binding {
     }
 }
 
-/// Where a run's reference comes from (for metrics and plots), in the plant's measured unit.
+/// Where a run's reference comes from (for metrics and plots), in the unit of the
+/// controller's first input (the trace column the metrics compare it with).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Reference {
-    /// The plant's own ([`Plant::reference`]: its default, or the scenario's `fr` channel).
-    Plant,
-    /// A constant: the spec's reference parameter, converted to the measured unit.
+    /// The plant's own ([`Plant::reference`]: its default, or the scenario's `fr` channel),
+    /// times `scale` (the binding's `measured_scale`: plant unit → the input's unit).
+    Plant {
+        /// Plant unit → the controller input's unit.
+        scale: f64,
+    },
+    /// A constant: the spec's reference parameter, in the unit of the controller's input.
     Constant {
         /// The value.
         value: f64,
@@ -129,7 +134,7 @@ impl Reference {
     /// The reference at time `t`.
     pub fn at(&self, plant: &dyn Plant, sc: &Scenario, t: f64) -> f64 {
         match self {
-            Reference::Plant => plant.reference(sc, t),
+            Reference::Plant { scale } => plant.reference(sc, t) * scale,
             Reference::Constant { value, .. } => *value,
         }
     }
@@ -138,10 +143,10 @@ impl Reference {
     pub fn source(&self, plant: &dyn Plant, sc: &Scenario) -> String {
         match self {
             Reference::Constant { source, .. } => source.clone(),
-            Reference::Plant if sc.channels.contains_key("fr") => {
+            Reference::Plant { .. } if sc.channels.contains_key("fr") => {
                 format!("the scenario's `fr` channel ({})", plant.measured().1)
             }
-            Reference::Plant => format!(
+            Reference::Plant { .. } => format!(
                 "the {} plant's default, {} {}",
                 plant.name(),
                 plant.reference(sc, 0.0),

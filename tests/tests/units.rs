@@ -63,6 +63,9 @@ const RIGHT: &[(&str, &str, &str)] = &[
     ("output y \"kN\";", "y = fc;", "property q { assume fc > FR; ensure next(u) <= u + 1e-3; }"),
     ("output y \"(mm/s)/kN\";", "y = KC;", ""),
     ("output y \"mm/(s*kN)\";", "y = KC;", ""),
+    ("const D: powf(TAU, -1.0) \"1/s\"; output y \"1/s\";", "y = D * r;", ""),
+    ("const FRN: convert(FR, \"N\") \"N\"; output y \"N\";", "y = FRN * r;", ""),
+    ("const A: exp(-period / TAU); output y;", "y = A * r;", ""),
 ];
 
 /// Cases that must be refused: (extra declarations, body, prove, message fragment). One of
@@ -105,6 +108,9 @@ const WRONG: &[(&str, &str, &str, &str)] = &[
         "property q { assume fc > FR; ensure next(u) @<= km; }",
         "this comparison",
     ),
+    ("const D: powf(0.5, @TAU); output y;", "y = r;", "", "the exponent of `powf`"),
+    ("const D: @exp(TAU); output y;", "y = r;", "", "its argument must be dimensionless"),
+    ("const D: @sqrt(FR); output y;", "y = r;", "", "not a square unit"),
 ];
 
 #[test]

@@ -193,7 +193,8 @@ pub fn bind(
     let reference = match marked.or(by_name) {
         Some(k) => {
             let ku = unit(k.unit.as_deref());
-            let f = ku.factor_to(&m_unit).ok_or_else(|| {
+            // In the unit of the controller's input: the trace column the metrics compare.
+            let f = ku.factor_to(&in_unit).ok_or_else(|| {
                 fail(format!(
                     "the `#[reference]` param `{}` is in \"{}\" ({}), but the {} plant measures {} in {}",
                     k.name,
@@ -210,10 +211,14 @@ pub fn bind(
                     k.name
                 ));
             }
-            let converted = if ku.same(&m_unit) {
+            let converted = if ku.same(&in_unit) {
                 String::new()
             } else {
-                format!(" = {} {}", qloop::text::g(k.value * f), c.measured.1)
+                format!(
+                    " = {} {}",
+                    qloop::text::g(k.value * f),
+                    first_in.unit.as_deref().unwrap_or("")
+                )
             };
             Reference::Constant {
                 value: k.value * f,
@@ -226,7 +231,9 @@ pub fn bind(
                 ),
             }
         }
-        None => Reference::Plant,
+        None => Reference::Plant {
+            scale: measured_scale,
+        },
     };
     Ok(Bound {
         binding: Binding {

@@ -115,7 +115,8 @@ pub fn simulate(
         &sc.breakpoints(),
         sc.duration_s,
         &compared,
-        sc.noise_sigma,
+        // The sensor noise is in the plant's unit; the metrics see the input's.
+        sc.noise_sigma * bound.binding.measured_scale.abs(),
     );
     Ok((trace, m))
 }

@@ -262,6 +262,16 @@ fn merge_portfolio(outcomes: Vec<Outcome>) -> Vec<Outcome> {
     let mut out: Vec<Outcome> = Vec::new();
     // Per merged outcome: (solver, encoding) of each solver's first proof.
     let mut provers: Vec<Vec<(Solver, &str)>> = Vec::new();
+    // The encodings on which two solvers disagreed, with their notes.
+    let disagreements: Vec<(Obligation, String)> = outcomes
+        .iter()
+        .filter_map(|o| {
+            o.note
+                .as_ref()
+                .filter(|n| n.starts_with(DISAGREE))
+                .map(|n| (o.ob.clone(), n.clone()))
+        })
+        .collect();
     for o in outcomes {
         let Some(how) = o.ob.encoding else {
             out.push(o);
@@ -301,6 +311,13 @@ fn merge_portfolio(outcomes: Vec<Outcome>) -> Vec<Outcome> {
         }
     }
     for (o, proofs) in out.iter_mut().zip(provers) {
+        // A disagreement on any encoding is a bug somewhere: never hidden by a proof in
+        // another encoding.
+        if let Some(n) = disagreements.iter().find(|(k, _)| alternatives(k, &o.ob)) {
+            o.verdict = Verdict::Unknown;
+            o.note = Some(n.1.clone());
+            continue;
+        }
         if o.verdict == Verdict::Proved && !proofs.is_empty() {
             let each: Vec<String> = proofs
                 .iter()
@@ -353,8 +370,9 @@ fn judge(plan: &Plan, ob: Obligation, runs: Vec<Run>) -> Outcome {
                     out.note = Some(format!(
                         "spurious counterexample (over-approximation): replay says {why}"
                     ));
+                    // Only the model that was replayed is known to be spurious.
                     for a in &mut out.attempts {
-                        a.spurious = matches!(a.run.answer, Answer::Sat(_));
+                        a.spurious = matches!(&a.run.answer, Answer::Sat(x) if *x == m);
                     }
                 }
                 Replay::NotApplicable => {}
@@ -408,7 +426,8 @@ impl Outcome {
     /// time: the proof where it proved one (`proved`), a counterexample that replays
     /// (`refuted`), otherwise each distinct answer with its encoding (`spurious cex
     /// (abstracted) + timeout (exact)`: a model of an over-approximation that the replay
-    /// rejected is never shown as `refuted`).
+    /// rejected is never shown as `refuted`, nor is one that was not replayed: `sat (not
+    /// replayed)`).
     pub fn solver_answer(&self, solver: Solver) -> Option<(String, u64, bool)> {
         let mine: Vec<&Attempt> = self
             .attempts
@@ -425,12 +444,12 @@ impl Outcome {
             (true, Some(e)) => format!("{label} ({e})"),
             _ => label.to_string(),
         };
-        let label = |a: &Attempt| {
-            if a.spurious {
-                "spurious cex".to_string()
-            } else {
-                answer_name(&a.run.answer)
-            }
+        let label = |a: &Attempt| match &a.run.answer {
+            Answer::Sat(_) if a.spurious => "spurious cex".to_string(),
+            // A model nobody replayed (a local query's, or beside a replayed one) is no
+            // refutation.
+            Answer::Sat(_) => "sat (not replayed)".to_string(),
+            other => answer_name(other),
         };
         let text = if let Some(a) = mine.iter().find(|a| a.run.answer == Answer::Unsat) {
             with_enc("proved", a)
@@ -706,7 +725,7 @@ mod tests {
         let s = report.summary(&plan);
         assert!(s.contains("UNKNOWN: ") && s.contains(DISAGREE), "{s}");
         assert!(
-            s.contains("z3: proved") && s.contains("cvc5: refuted"),
+            s.contains("z3: proved") && s.contains("cvc5: sat (not replayed)"),
             "{s}"
         );
     }

@@ -8,6 +8,7 @@ use crate::lang::ast::*;
 use crate::lang::parse::doc_lines;
 use crate::qformat::{IntTy, QFormat, Rounding, WIDTHS};
 
+mod const_eval;
 mod props;
 mod units;
 use proc_macro2::Span;
@@ -54,7 +55,9 @@ struct Checker {
     const_units: HashMap<String, Ty>,
     /// Boolean `let`s in scope (`let over = fc > FR;`), one map per block: a name stands for
     /// its condition wherever a condition is expected.
-    bools: Vec<HashMap<String, Cond>>,
+    bools: Vec<HashMap<String, BoolLet>>,
+    /// How many assignments each signal has had so far (for [`BoolLet`]).
+    writes: HashMap<SigId, usize>,
 }
 
 impl Checker {
@@ -397,11 +400,7 @@ impl Checker {
     // ---- constant folding -------------------------------------------------------------
 
     fn fold(&self, e: &SExpr) -> Result<f64> {
-        match self.expr(e)? {
-            Expr::Const { value, .. } => Ok(value),
-            _ => Err(Diag::new(e.span(), "expected a constant expression")
-                .help("use literals, `param`s, `const`s and `period` with + - *")),
-        }
+        self.const_eval(e)
     }
 
     // ---- statements ------------------------------------------------------------------
@@ -420,7 +419,45 @@ impl Checker {
 
     /// The condition a boolean `let` named `n` stands for, if one is in scope.
     fn bool_let(&self, n: &str) -> Option<&Cond> {
-        self.bools.iter().rev().find_map(|s| s.get(n))
+        self.bools
+            .iter()
+            .rev()
+            .find_map(|s| s.get(n))
+            .map(|b| &b.cond)
+    }
+
+    /// The condition of the boolean `let` `ident` at a use: refused if a signal it reads has
+    /// been assigned since it was written (it is evaluated where it is used, so it would see
+    /// the new value).
+    fn use_bool_let(&self, ident: &syn::Ident) -> Result<Cond> {
+        let n = ident.to_string();
+        let Some(b) = self.bools.iter().rev().find_map(|s| s.get(&n)) else {
+            return Err(Diag::new(ident.span(), "expected a comparison"));
+        };
+        for (id, seen) in &b.reads {
+            if self.writes.get(id).copied().unwrap_or(0) != *seen {
+                let sig = &self.signals[id.0].name;
+                return Err(Diag::new(
+                    ident.span(),
+                    format!(
+                        "`{n}` reads `{sig}`, which is assigned after `let {n}` (line {})",
+                        b.line
+                    ),
+                )
+                .label("would see the new value")
+                .help(format!(
+                    "a boolean `let` names its condition and is evaluated where it is used; \
+                     keep the old value in a numeric `let` (`let old = {sig};`) and compare \
+                     that, or write the boolean `let` after the assignment"
+                )));
+            }
+        }
+        Ok(b.cond.clone())
+    }
+
+    /// Counts an assignment to `id` (see [`Checker::use_bool_let`]).
+    fn note_write(&mut self, id: SigId) {
+        *self.writes.entry(id).or_insert(0) += 1;
     }
 
     /// Whether `e` is a condition (a comparison, `&&`, `||`, `!`, or a boolean `let`) rather
@@ -472,8 +509,15 @@ impl Checker {
                         ));
                     }
                     self.define(ident)?;
+                    let mut read = BTreeSet::new();
+                    cond_reads(&cond, &mut read);
+                    let reads = read
+                        .into_iter()
+                        .map(|id| (id, self.writes.get(&id).copied().unwrap_or(0)))
+                        .collect();
+                    let line = ident.span().start().line;
                     if let Some(top) = self.bools.last_mut() {
-                        top.insert(ident.to_string(), cond);
+                        top.insert(ident.to_string(), BoolLet { cond, reads, line });
                     }
                     return Ok(());
                 }
@@ -528,6 +572,7 @@ impl Checker {
                 let target = self.target(&a.left)?;
                 let value = self.expr(&a.right)?;
                 self.check_store_units(target, &a.right, a.eq_token.span)?;
+                self.note_write(target);
                 self.mark_assigned(target);
                 out.push(Stmt::Assign {
                     target,
@@ -549,6 +594,7 @@ impl Checker {
                 let cur = Box::new(Expr::Var(target, b.left.span()));
                 let rhs = Box::new(self.expr(&b.right)?);
                 self.check_store_units(target, &b.right, b.op.span())?;
+                self.note_write(target);
                 let value = match b.op {
                     BinOp::AddAssign(_) => Expr::Add(cur, rhs),
                     _ => Expr::Sub(cur, rhs),
@@ -823,14 +869,13 @@ impl Checker {
     fn cond(&self, e: &SExpr) -> Result<Cond> {
         match e {
             SExpr::Paren(p) => self.cond(&p.expr),
-            SExpr::Path(_) => path_ident(e)
-                .and_then(|i| self.bool_let(&i.to_string()).cloned())
-                .ok_or_else(|| {
-                    Diag::new(e.span(), "expected a comparison").help(
-                        "conditions compare numbers with < <= > >= == != and join them with && || !; \
-                         a boolean `let` names one",
-                    )
-                }),
+            SExpr::Path(_) => match path_ident(e) {
+                Some(i) if self.bool_let(&i.to_string()).is_some() => self.use_bool_let(&i),
+                _ => Err(Diag::new(e.span(), "expected a comparison").help(
+                    "conditions compare numbers with < <= > >= == != and join them with && || !; \
+                     a boolean `let` names one",
+                )),
+            },
             SExpr::Unary(u) if matches!(u.op, UnOp::Not(_)) => {
                 Ok(Cond::Not(Box::new(self.cond(&u.expr)?)))
             }
@@ -858,6 +903,53 @@ impl Checker {
             other => Err(Diag::new(other.span(), "expected a comparison").help(
                 "conditions compare numbers with < <= > >= == != and join them with && || !",
             )),
+        }
+    }
+}
+
+/// A boolean `let`: its condition, the signals it reads with how many assignments each had
+/// when it was written, and its line.
+struct BoolLet {
+    cond: Cond,
+    reads: Vec<(SigId, usize)>,
+    line: usize,
+}
+
+/// Adds the signals `c` reads to `out`.
+fn cond_reads(c: &Cond, out: &mut BTreeSet<SigId>) {
+    match c {
+        Cond::Cmp(_, a, b) => {
+            expr_reads(a, out);
+            expr_reads(b, out);
+        }
+        Cond::And(a, b) | Cond::Or(a, b) => {
+            cond_reads(a, out);
+            cond_reads(b, out);
+        }
+        Cond::Not(a) => cond_reads(a, out),
+    }
+}
+
+/// Adds the signals `e` reads to `out`.
+fn expr_reads(e: &Expr, out: &mut BTreeSet<SigId>) {
+    match e {
+        Expr::Const { .. } => {}
+        Expr::Var(id, _) => {
+            out.insert(*id);
+        }
+        Expr::Neg(a) => expr_reads(a, out),
+        Expr::Add(a, b)
+        | Expr::Sub(a, b)
+        | Expr::Mul(a, b, _)
+        | Expr::Min(a, b)
+        | Expr::Max(a, b) => {
+            expr_reads(a, out);
+            expr_reads(b, out);
+        }
+        Expr::Select(c, a, b) => {
+            cond_reads(c, out);
+            expr_reads(a, out);
+            expr_reads(b, out);
         }
     }
 }
@@ -1337,5 +1429,92 @@ mod tests {
         let p = super::check(&parse_str(src).unwrap()).unwrap();
         assert_eq!(p.period, 0.002);
         assert_eq!(p.constants[0].value, 3.0 * 0.002 - 0.5 * 0.002);
+    }
+
+    /// Compile-time mathematics (issue 16): `/`, `exp`, `ln`, `sqrt`, `powf` in constants,
+    /// checked against values computed independently here (the closed forms, to the digits
+    /// the literals give) and their units; errors at the operator or call; division in
+    /// `step` is still refused.
+    #[test]
+    fn constants_may_divide_and_call_exp_ln_sqrt_powf() {
+        let src = "controller t {
+period 2 \"ms\";
+param TAU: 0.02 \"s\";
+const A: exp(-period / TAU);
+const W: 2.0 * 3.141592653589793 * 50.0 \"1/s\";
+const T: 1.0 / W \"s\";
+const R: sqrt(2.0);
+const L: ln(8.0) / ln(2.0);
+const P: powf(2.0, 0.5);
+const M: (0.5).powf(3.0) + TAU.abs() \"s\";
+const S: sqrt(4.0 * TAU * TAU) \"s\";
+input x: [0.0, 1.0];
+output y;
+step { y = x * A; }
+}";
+        let p = super::check(&parse_str(src).unwrap()).unwrap();
+        let v = |n: &str| p.constants.iter().find(|c| c.name == n).unwrap().value;
+        assert!(
+            (v("A") - 0.904_837_418_035_959_6).abs() < 1e-15,
+            "{}",
+            v("A")
+        ); // e^-0.1
+        assert!(
+            (v("T") - 0.003_183_098_861_837_907).abs() < 1e-17,
+            "{}",
+            v("T")
+        ); // 1/(100π)
+        assert_eq!(v("R"), std::f64::consts::SQRT_2); // correctly rounded
+        assert!((v("L") - 3.0).abs() < 1e-15);
+        assert!((v("P") - std::f64::consts::SQRT_2).abs() < 1e-15);
+        assert_eq!(v("M"), 0.125 + 0.02);
+        assert!((v("S") - 0.04).abs() < 1e-17);
+        let base = "input x: [0.0, 1.0];\noutput y;\nstep { y = x; }";
+        for (items, want, line, col) in [
+            ("const Z: 1.0 / (2.0 - 2.0);", "division by zero", 3, 14),
+            ("const Z: ln(0.0);", "`ln` of 0", 3, 10),
+            ("const Z: sqrt(-1.0);", "`sqrt` of -1", 3, 10),
+            ("const Z: powf(-2.0, 0.5);", "no real value", 3, 10),
+            (
+                "const Z: exp(period);",
+                "its argument must be dimensionless",
+                3,
+                10,
+            ),
+            ("const Z: sin(1.0);", "unknown function `sin`", 3, 10),
+            (
+                "param F: 1.0 \"kN\";\nconst Z: sqrt(F);",
+                "not a square unit",
+                4,
+                10,
+            ),
+        ] {
+            let (m, l, c) = err(&format!("period 0.1 \"s\";\n{items}\n{base}"));
+            assert!(m.contains(want), "{items}: {m}");
+            assert_eq!((l, c), (line, col), "{items}: {m}");
+        }
+        // Run-time division stays a located error.
+        let (m, l, c) = err(&format!("{HEAD}\nstep {{ y = x / 2.0; }}"));
+        assert!(m.contains("division"), "{m}");
+        assert_eq!((l, c), (5, 14));
+    }
+
+    /// A boolean `let` names its condition, evaluated where it is used: a use after an
+    /// assignment to a signal it reads is refused at the use (it would see the new value);
+    /// assigning inside the `if` it decides is fine.
+    #[test]
+    fn a_boolean_let_cannot_be_outdated_by_a_later_assignment() {
+        let (m, l, c) = err(&format!(
+            "{HEAD}\nstate u: [0.0, 5.0] = 1.0;\nstep {{ let over = u > 2.0; u = u * 0.5; if over {{ u = 0.0; }} y = x; }}"
+        ));
+        assert!(
+            m.contains("`over` reads `u`, which is assigned after `let over`"),
+            "{m}"
+        );
+        assert_eq!((l, c), (6, 44));
+        let src = format!(
+            "controller t {{\n{HEAD}\nstate u: [0.0, 5.0] = 1.0;\nstep {{ let slow = u < 1.0; if slow {{ u = u + 0.5; }} y = x; }}\n}}\n"
+        );
+        assert!(super::check(&parse_str(&src).unwrap()).is_ok());
     }
 }

@@ -98,15 +98,17 @@ fn display(text: &str) -> String {
     }
 }
 
+/// A unit's text, parenthesised if it is compound.
+fn wrap(s: &str) -> String {
+    if s.contains(['/', '·', '*', '^']) {
+        format!("({s})")
+    } else {
+        s.to_string()
+    }
+}
+
 /// `a · b` as text, parenthesised where a quotient would read wrongly.
 fn product_text(a: &str, b: &str) -> String {
-    let wrap = |s: &str| {
-        if s.contains(['/', '·', '*']) {
-            format!("({s})")
-        } else {
-            s.to_string()
-        }
-    };
     match (a, b) {
         ("1", x) | (x, "1") => x.to_string(),
         _ => format!("{}·{}", wrap(a), wrap(b)),
@@ -211,6 +213,20 @@ impl Checker {
                             Ty::Of(u, text)
                         }
                     }),
+                    // Only constant expressions divide (the checker refuses `/` in `step`).
+                    BinOp::Div(_) => Ok(match (l, r) {
+                        (x, Ty::Lit) => x,
+                        (Ty::Lit, Ty::Of(u, t)) => Ty::Of(Unit::ONE / u, format!("1/{}", wrap(&t))),
+                        (Ty::Of(a, ta), Ty::Of(c, tc)) => {
+                            let u = a / c;
+                            let text = if u.same(&Unit::ONE) {
+                                "1".to_string()
+                            } else {
+                                format!("{}/{}", wrap(&ta), wrap(&tc))
+                            };
+                            Ty::Of(u, text)
+                        }
+                    }),
                     BinOp::Add(_) => same(l, r, b.op.span(), "`+`"),
                     BinOp::Sub(_) => same(l, r, b.op.span(), "`-`"),
                     _ => Ok(l),
@@ -280,6 +296,87 @@ impl Checker {
                 )?;
                 same(t, hi.clone(), args[2].span(), "`clamp`'s upper bound")
             }
+            ("exp" | "ln", [x]) => {
+                if let Ty::Of(u, t) = x {
+                    if !u.same(&Unit::ONE) {
+                        return Err(Diag::new(
+                            span,
+                            format!(
+                                "`{f}` of {}: its argument must be dimensionless",
+                                describe(x)
+                            ),
+                        )
+                        .label(t.clone())
+                        .help(format!(
+                            "divide by a quantity of the same unit first: `{f}(-period / TAU)`"
+                        )));
+                    }
+                }
+                Ok(match x {
+                    Ty::Lit => Ty::Lit,
+                    _ => Ty::Of(Unit::ONE, "1".into()),
+                })
+            }
+            ("sqrt", [x]) => {
+                match x {
+                    Ty::Lit => Ok(Ty::Lit),
+                    Ty::Of(u, t) => {
+                        if u.dims.iter().any(|d| d % 2 != 0) {
+                            return Err(Diag::new(
+                            span,
+                            format!("`sqrt` of {}: not a square unit", describe(x)),
+                        )
+                        .label(t.clone())
+                        .help("take the root of a squared unit (`m^2`), or of a dimensionless ratio"));
+                        }
+                        let mut half = *u;
+                        half.scale = u.scale.sqrt();
+                        for d in &mut half.dims {
+                            *d /= 2;
+                        }
+                        Ok(Ty::Of(half, format!("sqrt({t})")))
+                    }
+                }
+            }
+            ("powf", [_, e]) if !matches!(e, Ty::Lit) && !e.unit().same(&Unit::ONE) => {
+                Err(Diag::new(
+                    args[1].span(),
+                    format!(
+                        "the exponent of `powf` is {}: it must be dimensionless",
+                        describe(e)
+                    ),
+                )
+                .label(e.text())
+                .help("divide by a quantity of the same unit first: `powf(0.5, T / TAU)`"))
+            }
+            ("powf", [x, _]) => match x {
+                Ty::Lit => Ok(Ty::Lit),
+                Ty::Of(u, _) if u.same(&Unit::ONE) => Ok(x.clone()),
+                Ty::Of(u, t) => {
+                    let n = match args[1] {
+                        SExpr::Lit(l) => super::lit_value(&l.lit).ok(),
+                        SExpr::Unary(syn::ExprUnary {
+                            op: UnOp::Neg(_),
+                            expr,
+                            ..
+                        }) => match &**expr {
+                            SExpr::Lit(l) => super::lit_value(&l.lit).ok().map(|v| -v),
+                            _ => None,
+                        },
+                        _ => None,
+                    }
+                    .filter(|n| n.fract() == 0.0 && n.abs() <= 9.0);
+                    match n {
+                        Some(n) => Ok(Ty::Of(u.powi(n as i8), format!("{}^{n}", wrap(t)))),
+                        None => Err(Diag::new(
+                            span,
+                            format!("`powf` of {}: a quantity with a unit takes a whole-number literal exponent", describe(x)),
+                        )
+                        .label(t.clone())
+                        .help("write the exponent as a literal (`powf(T, 2.0)`), or make the base dimensionless")),
+                    }
+                }
+            },
             ("convert", [x, _]) => {
                 let to = self.convert_target(args)?;
                 match x {
