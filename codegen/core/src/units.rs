@@ -378,8 +378,8 @@ fn symbol(sym: &str) -> Option<Unit> {
     if let Some(b) = BASES.iter().find(|b| b.0 == sym) {
         return Some(unit(b));
     }
-    if sym == "Ω" {
-        return symbol("Ohm");
+    if sym.contains('Ω') {
+        return symbol(&sym.replace('Ω', "Ohm"));
     }
     PREFIXES.iter().find_map(|(p, f)| {
         let rest = sym.strip_prefix(p)?;
@@ -525,5 +525,6 @@ mod tests {
         assert_eq!(e.at, 2);
         assert!(parse("furlong").unwrap_err().suggestion.is_none());
         assert!(parse("K²").is_ok() && parse("kK").is_err());
+        assert!(u("kΩ").same(&u("kOhm")) && u("Ω").same(&u("V/A")));
     }
 }

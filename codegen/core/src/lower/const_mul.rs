@@ -65,7 +65,10 @@ impl Lowerer<'_> {
         out: &mut Vec<LStmt>,
     ) -> Result<ValId> {
         if let Some(fine) = self.chain_pays(y, c1, c2) {
-            return self.mul_const_fine(y, c1 * c2, fine, None, None, spans.1, out);
+            // Named after both factors in `qloop check`: `VC·1.6667e-5`.
+            let part = |n: &Option<String>, c: f64| n.clone().unwrap_or_else(|| crate::text::g(c));
+            let name = format!("{}·{}", part(&name1, c1), part(&name2, c2));
+            return self.mul_const_fine(y, c1 * c2, fine, Some(name), None, spans.1, out);
         }
         let t = self.mul_const(y, c1, name1, None, spans.0, out)?;
         self.mul_const(t, c2, name2, None, spans.1, out)
