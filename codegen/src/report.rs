@@ -52,13 +52,16 @@ pub fn op_counts(plan: &Plan) -> OpCounts {
 /// Relative quantisation error of a constant above which `qloop check` warns.
 pub const QUANTISATION_WARN: f64 = 0.01;
 
-/// How a constant's applied value differs from the written one: `exact`, or the relative
-/// difference in percent.
-fn quantisation(written: f64, applied: f64) -> String {
-    if applied == written {
-        "exact".into()
-    } else {
-        format!("{:+.2e} %", 100.0 * (applied - written) / written)
+/// How the applied constant `m·2^-k` differs from the written one: `exact`, or the relative
+/// difference in percent. `m·2^-k` is an f64 exactly only below 2^53; above, a difference
+/// the f64 cannot show is said as a bound, never as `exact`.
+fn quantisation(written: f64, m: i128, k: i32) -> String {
+    let applied = m as f64 * 2f64.powi(-k);
+    let representable = m.unsigned_abs() < 1 << 53;
+    match (applied == written, representable) {
+        (true, true) => "exact".into(),
+        (true, false) => "< 1e-13 %".into(),
+        _ => format!("{:+.2e} %", 100.0 * (applied - written) / written),
     }
 }
 
@@ -151,13 +154,12 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
                 m.adders, m.shifts, m.costs.0, m.costs.1
             )
         };
-        let applied = m.m as f64 * 2f64.powi(-m.k);
         let _ = writeln!(
             o,
             "  x * {what} = x * {}·2^{} ({}): {how}",
             m.m,
             -m.k,
-            quantisation(m.constant, applied)
+            quantisation(m.constant, m.m, m.k)
         );
     }
     for m in &plan.mults {

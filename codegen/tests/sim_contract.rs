@@ -33,6 +33,18 @@ fn column(dir: &Path, name: &str) -> Vec<f64> {
         .collect()
 }
 
+/// The mean of trace column `name` over `from <= t < to`.
+fn mean_between(dir: &Path, name: &str, from: f64, to: f64) -> f64 {
+    let v: Vec<f64> = column(dir, "t")
+        .iter()
+        .zip(column(dir, name))
+        .filter(|(t, _)| **t >= from && **t < to)
+        .map(|(_, x)| x)
+        .collect();
+    assert!(!v.is_empty(), "no rows of {name} in [{from}, {to})");
+    v.iter().sum::<f64>() / v.len() as f64
+}
+
 fn sim(spec: &str, dir: &Path, extra: &[&str]) -> (Option<i32>, String, String) {
     let mut args = vec!["sim", spec, "--out", dir.to_str().unwrap()];
     args.extend(extra);
@@ -58,16 +70,8 @@ fn sim_measures_against_the_specs_reference_and_runs_a_percent_override() {
     );
     // Independent of the metrics code: the settled force over the last 20 % of each cutting
     // segment (depth steps at 1, 16, 31 s; 46 s long) is the spec's reference.
-    let (t, fc) = (column(&dir, "t"), column(&dir, "fc"));
     for (a, b) in [(1.0, 16.0), (16.0, 31.0), (31.0, 46.0)] {
-        let from = b - 0.2 * (b - a);
-        let v: Vec<f64> = t
-            .iter()
-            .zip(&fc)
-            .filter(|(t, _)| **t >= from && **t < b)
-            .map(|(_, f)| *f)
-            .collect();
-        let mean = v.iter().sum::<f64>() / v.len() as f64;
+        let mean = mean_between(&dir, "fc", b - 0.2 * (b - a), b);
         assert!(
             (mean - 1.25).abs() < 0.01,
             "segment {a}-{b}: mean force {mean}"
@@ -133,14 +137,7 @@ fn a_spec_in_other_units_is_converted_and_measured_in_its_own() {
             && out.contains("the plant's kN is converted to the spec's N (×1000)"),
         "{out}"
     );
-    let (t, fc) = (column(&dir, "t"), column(&dir, "fc"));
-    let last: Vec<f64> = t
-        .iter()
-        .zip(&fc)
-        .filter(|(t, _)| **t >= 13.0 && **t < 16.0)
-        .map(|(_, f)| *f)
-        .collect();
-    let mean = last.iter().sum::<f64>() / last.len() as f64;
+    let mean = mean_between(&dir, "fc", 13.0, 16.0);
     assert!((mean - 1250.0).abs() < 10.0, "mean force {mean} N");
     let row = out
         .lines()

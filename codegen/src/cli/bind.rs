@@ -4,7 +4,7 @@
 //! the run is measured against. Errors say what the plant offers.
 
 use super::error::{CliError, CliResult};
-use qloop::ir::{Program, SigKind};
+use qloop::ir::{Constant, Program, SigKind};
 use qloop::units::{self, Unit};
 use qloop_plant::{Binding, Contract, Plant, Reference, Scenario};
 
@@ -28,6 +28,19 @@ fn unit(text: Option<&str>) -> Unit {
 fn dim(u: &Unit) -> String {
     u.dimension_name()
         .map_or_else(|| u.dimension_text(), str::to_string)
+}
+
+/// The value of param `k` (marked `mark`) in unit `to`, or why not (`why`: what needs it).
+fn param_in(k: &Constant, mark: &str, to: &Unit, why: &str) -> Result<f64, String> {
+    let ku = unit(k.unit.as_deref());
+    ku.factor_to(to).map(|f| k.value * f).ok_or_else(|| {
+        format!(
+            "the `{mark}` param `{}` is in \"{}\" ({}), but {why}",
+            k.name,
+            k.unit.as_deref().unwrap_or(""),
+            dim(&ku)
+        )
+    })
 }
 
 /// Binds `prog` to `plant` for `sc`. `nominal` is the nominal feed from the command line, in
@@ -96,18 +109,9 @@ pub fn bind(
             let (value, source) = match (nominal, spec_nominal) {
                 (Some(v), _) => (v, "--nominal-feed".to_string()),
                 (None, Some(k)) => {
-                    let ku = unit(k.unit.as_deref());
-                    let f = ku.factor_to(&c_unit).ok_or_else(|| {
-                        fail(format!(
-                            "the `#[nominal]` param `{}` is in \"{}\" ({}), but the {} plant's command is in {}",
-                            k.name,
-                            k.unit.as_deref().unwrap_or(""),
-                            dim(&ku),
-                            c.plant,
-                            c.command.1
-                        ))
-                    })?;
-                    (k.value * f, format!("param {}", k.name))
+                    let why = format!("the {} plant's command is in {}", c.plant, c.command.1);
+                    let v = param_in(k, "#[nominal]", &c_unit, &why).map_err(fail)?;
+                    (v, format!("param {}", k.name))
                 }
                 (None, None) => {
                     return Err(fail(format!(
@@ -194,17 +198,11 @@ pub fn bind(
         Some(k) => {
             let ku = unit(k.unit.as_deref());
             // In the unit of the controller's input: the trace column the metrics compare.
-            let f = ku.factor_to(&in_unit).ok_or_else(|| {
-                fail(format!(
-                    "the `#[reference]` param `{}` is in \"{}\" ({}), but the {} plant measures {} in {}",
-                    k.name,
-                    k.unit.as_deref().unwrap_or(""),
-                    dim(&ku),
-                    c.plant,
-                    c.measured.0,
-                    c.measured.1
-                ))
-            })?;
+            let why = format!(
+                "the {} plant measures {} in {}",
+                c.plant, c.measured.0, c.measured.1
+            );
+            let value = param_in(k, "#[reference]", &in_unit, &why).map_err(fail)?;
             if sc.channels.contains_key("fr") && !inputs.iter().any(|s| s.name == "fr") {
                 notes.push(format!(
                     "the scenario's `fr` channel is not used: the controller holds its param {}",
@@ -216,12 +214,12 @@ pub fn bind(
             } else {
                 format!(
                     " = {} {}",
-                    qloop::text::g(k.value * f),
+                    qloop::text::g(value),
                     first_in.unit.as_deref().unwrap_or("")
                 )
             };
             Reference::Constant {
-                value: k.value * f,
+                value,
                 source: format!(
                     "the spec's {}param {} = {} {}{converted}",
                     if k.reference { "#[reference] " } else { "" },

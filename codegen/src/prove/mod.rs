@@ -437,7 +437,7 @@ impl Outcome {
         if mine.is_empty() {
             return None;
         }
-        let total: u64 = mine.iter().map(|a| a.run.millis).sum();
+        let total = self.solver_ms(solver);
         let cached = mine.iter().all(|a| a.run.cached);
         let several = mine.len() > 1;
         let with_enc = |label: &str, a: &Attempt| match (several, a.encoding) {
@@ -477,16 +477,22 @@ impl Outcome {
         Some((text, total, cached))
     }
 
+    /// The time `solver` spent on this obligation, over all its encodings.
+    pub fn solver_ms(&self, solver: Solver) -> u64 {
+        self.attempts
+            .iter()
+            .filter(|a| a.run.solver == solver)
+            .map(|a| a.run.millis)
+            .sum()
+    }
+
     /// The longest any one solver spent on this obligation (all its encodings).
     pub fn slowest_ms(&self) -> u64 {
-        let mut per: Vec<(Solver, u64)> = Vec::new();
-        for a in &self.attempts {
-            match per.iter_mut().find(|p| p.0 == a.run.solver) {
-                Some(p) => p.1 += a.run.millis,
-                None => per.push((a.run.solver, a.run.millis)),
-            }
-        }
-        per.iter().map(|p| p.1).max().unwrap_or(0)
+        Solver::ALL
+            .iter()
+            .map(|s| self.solver_ms(*s))
+            .max()
+            .unwrap_or(0)
     }
 }
 
@@ -580,15 +586,13 @@ Inputs are arbitrary bits (step clamps them), except in properties, which assume
         let per: Vec<String> = solvers
             .iter()
             .map(|s| {
-                let ms: u64 = self
-                    .outcomes
-                    .iter()
-                    .flat_map(|x| &x.attempts)
-                    .map(|a| &a.run)
-                    .chain(&self.witness_runs)
-                    .filter(|r| r.solver == *s)
-                    .map(|r| r.millis)
-                    .sum();
+                let ms: u64 = self.outcomes.iter().map(|x| x.solver_ms(*s)).sum::<u64>()
+                    + self
+                        .witness_runs
+                        .iter()
+                        .filter(|r| r.solver == *s)
+                        .map(|r| r.millis)
+                        .sum::<u64>();
                 format!("{} {:.2} s", s.name(), ms as f64 / 1000.0)
             })
             .collect();

@@ -123,7 +123,7 @@ impl Checker {
                 return Err(Diag::new(span, "`convert` takes 2 arguments")
                     .help("write `convert(x, \"mm/s\")`"));
             }
-            return Ok(self.const_eval(args[0])? * self.convert_factor(args, span)?);
+            return Ok(self.const_eval(args[0])? * self.convert_factor(args)?);
         }
         let Some(&(_, want)) = FUNCTIONS.iter().find(|(n, _)| *n == f) else {
             return Err(Diag::new(fspan, format!("unknown function `{f}` in a constant expression"))

@@ -86,7 +86,7 @@ impl Checker {
             match item {
                 Item::Period { value, unit, span } => {
                     dup(&period, *span, "period")?;
-                    let mut v = self.fold(value)?;
+                    let mut v = self.const_eval(value)?;
                     match unit.as_ref().map(|u| u.value()) {
                         None => {}
                         Some(u) if u == "s" => {}
@@ -216,7 +216,7 @@ impl Checker {
 
     fn constant(&mut self, c: &ConstDecl) -> Result<()> {
         self.define(&c.name)?;
-        let v = self.fold(&c.value)?;
+        let v = self.const_eval(&c.value)?;
         let name = c.name.to_string();
         let inferred = self.unit_of(&c.value, &ParamUnits::new())?;
         let unit = match &c.unit {
@@ -291,7 +291,7 @@ impl Checker {
         let unit = Ty::declared(s.unit.as_ref())?;
         let range = match &s.range {
             Some(r) => {
-                let (lo, hi) = (self.fold(&r.lo)?, self.fold(&r.hi)?);
+                let (lo, hi) = (self.const_eval(&r.lo)?, self.const_eval(&r.hi)?);
                 for e in [&r.lo, &r.hi] {
                     let t = self.unit_of(e, &ParamUnits::new())?;
                     units::same(unit.clone(), t, e.span(), &format!("the range of `{name}`"))?;
@@ -327,7 +327,7 @@ impl Checker {
         }
         let init = match (&s.init, kind) {
             (Some(e), SigKind::State) => {
-                let v = self.fold(e)?;
+                let v = self.const_eval(e)?;
                 let t = self.unit_of(e, &ParamUnits::new())?;
                 units::same(
                     unit.clone(),
@@ -395,12 +395,6 @@ impl Checker {
             top.insert(name, id);
         }
         Ok(())
-    }
-
-    // ---- constant folding -------------------------------------------------------------
-
-    fn fold(&self, e: &SExpr) -> Result<f64> {
-        self.const_eval(e)
     }
 
     // ---- statements ------------------------------------------------------------------
@@ -812,7 +806,7 @@ impl Checker {
                         .help("write `convert(x, \"mm/s\")`"));
                 }
                 let x = self.expr(args[0])?;
-                let factor = self.convert_factor(args, span)?;
+                let factor = self.convert_factor(args)?;
                 let k = Expr::Const {
                     value: factor,
                     name: None,

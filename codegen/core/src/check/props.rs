@@ -69,7 +69,7 @@ impl Checker {
                             return Err(Diag::new(p.span(), format!("`{n}` is already defined"))
                                 .help("free parameters need names of their own"));
                         }
-                        let (lo, hi) = (self.fold(&r.lo)?, self.fold(&r.hi)?);
+                        let (lo, hi) = (self.const_eval(&r.lo)?, self.const_eval(&r.hi)?);
                         if lo >= hi {
                             return Err(Diag::new(r.span, format!("empty range [{lo}, {hi}]")));
                         }

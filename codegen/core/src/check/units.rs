@@ -377,68 +377,53 @@ impl Checker {
                     }
                 }
             },
-            ("convert", [x, _]) => {
-                let to = self.convert_target(args)?;
-                match x {
-                    Ty::Lit => Ok(to.1),
-                    Ty::Of(u, text) => {
-                        if to.0.factor_to(u).is_none() {
-                            return Err(Diag::new(
-                                args[1].span(),
-                                format!(
-                                    "cannot convert {} to {}: different dimensions",
-                                    describe(x),
-                                    describe(&to.1)
-                                ),
-                            )
-                            .label(format!("{text} → {}", to.1.text()))
-                            .help("`convert` changes the unit within one dimension (N → kN, mm/s → mm/min); check the formula"));
-                        }
-                        Ok(to.1)
-                    }
-                }
-            }
+            ("convert", [x, _]) => self.convert(x, args).map(|(to, _)| to),
             (_, [a, ..]) => Ok(a.clone()),
             _ => Ok(Ty::Lit),
         }
     }
 
-    /// The target of `convert(x, "unit")`: the unit and its [`Ty`].
-    pub(crate) fn convert_target(&self, args: &[&SExpr]) -> Result<(Unit, Ty)> {
-        let lit = match args.get(1) {
+    /// The target unit of `convert(x, "unit")`.
+    fn convert_target(&self, args: &[&SExpr]) -> Result<Ty> {
+        match args.get(1) {
             Some(SExpr::Lit(syn::ExprLit {
                 lit: syn::Lit::Str(s),
                 ..
-            })) => s,
-            Some(other) => {
-                return Err(Diag::new(other.span(), "expected a unit string")
-                    .help("write `convert(x, \"mm/s\")`"))
-            }
-            None => {
-                return Err(Diag::new(Span::call_site(), "`convert` takes 2 arguments")
-                    .help("write `convert(x, \"mm/s\")`"))
-            }
-        };
-        let t = Ty::declared(Some(lit))?;
-        Ok((t.unit(), t))
+            })) => Ty::declared(Some(s)),
+            Some(other) => Err(Diag::new(other.span(), "expected a unit string")
+                .help("write `convert(x, \"mm/s\")`")),
+            None => Err(Diag::new(Span::call_site(), "`convert` takes 2 arguments")
+                .help("write `convert(x, \"mm/s\")`")),
+        }
     }
 
-    /// The factor of `convert(x, "unit")`: from `x`'s unit to the named one.
-    pub(crate) fn convert_factor(&self, args: &[&SExpr], span: Span) -> Result<f64> {
-        // Checks the argument's units and the conversion, with the located messages.
-        self.call_unit("convert", args, span, &ParamUnits::new())?;
-        let (to, _) = self.convert_target(args)?;
-        let from = self.unit_of(args[0], &ParamUnits::new())?;
-        from.unit().factor_to(&to).ok_or_else(|| {
-            Diag::new(
-                span,
+    /// `convert(x, "unit")` with `x` in `from`: the target unit and the factor from `from` to
+    /// it (1 for a number literal, which takes the target unit); refused across dimensions.
+    fn convert(&self, from: &Ty, args: &[&SExpr]) -> Result<(Ty, f64)> {
+        let to = self.convert_target(args)?;
+        let Ty::Of(u, text) = from else {
+            return Ok((to, 1.0));
+        };
+        match u.factor_to(&to.unit()) {
+            Some(f) => Ok((to, f)),
+            None => Err(Diag::new(
+                args[1].span(),
                 format!(
                     "cannot convert {} to {}: different dimensions",
-                    describe(&from),
-                    to
+                    describe(from),
+                    describe(&to)
                 ),
             )
-        })
+            .label(format!("{text} → {}", to.text()))
+            .help("`convert` changes the unit within one dimension (N → kN, mm/s → mm/min); check the formula")),
+        }
+    }
+
+    /// The factor of `convert(x, "unit")`: from `x`'s unit to the named one, the units inside
+    /// `x` checked.
+    pub(crate) fn convert_factor(&self, args: &[&SExpr]) -> Result<f64> {
+        let from = self.unit_of(args[0], &ParamUnits::new())?;
+        self.convert(&from, args).map(|(_, f)| f)
     }
 
     /// Checks the units in a condition (`if`, `assume`, `ensure`, `invariant`).
