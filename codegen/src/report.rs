@@ -8,6 +8,109 @@ use crate::lower::target::{MulKind, Target};
 use crate::lower::Plan;
 use std::fmt::Write;
 
+/// The fixed-step reciprocals: what real arithmetic guarantees, and with the fixed-point
+/// error of the result (the `let`'s column: |r − r_real| ≤ err), |1 − d·r| ≤ E + HI·err.
+fn recips(plan: &Plan) -> String {
+    let p = &plan.prog;
+    if p.recips.is_empty() {
+        return String::new();
+    }
+    let mut o =
+        String::from("\nFixed-step reciprocals (`newton_recip`, of d clamped to its range):\n");
+    for r in &p.recips {
+        let e = r.real_error();
+        let total = match crate::lower::newton::recip_bound(plan, r) {
+            Some(b) => format!(
+                "with the rounding of each step (lower::newton): |1 - d*r| <= {}",
+                bound(b)
+            ),
+            None => {
+                let err = plan.summary[r.r.0].err;
+                format!(
+                    "with r's fixed-point error (<= {}): |1 - d*r| <= {}",
+                    bound(err),
+                    bound((e + r.hi * err) * (1.0 + 1e-12))
+                )
+            }
+        };
+        let _ = writeln!(
+            o,
+            "  line {}: r = 1/d for d in [{}, {}], seed {}, {} Newton step(s): 0 <= 1 - d*r <= {} in real arithmetic; {total}",
+            r.span.start().line,
+            g(r.lo),
+            g(r.hi),
+            g(r.seed),
+            r.steps,
+            bound(e),
+        );
+    }
+    o
+}
+
+/// The reciprocal trackers: the contraction real arithmetic gives, and the property that
+/// `qloop prove` discharges on the generated code.
+fn tracks(plan: &Plan) -> String {
+    let p = &plan.prog;
+    if p.tracks.is_empty() {
+        return String::new();
+    }
+    let mut o = String::from("\nReciprocal trackers (`recip_track`):\n");
+    for t in &p.tracks {
+        let (r, x) = (p.sig(t.r), p.sig(t.x));
+        let (xl, xh) = x.range.unwrap_or((0.0, 0.0));
+        let _ = writeln!(
+            o,
+            "  line {}: {} -> 1/{} for {} in [{}, {}], gain {}: 1 - x*r shrinks by {} per step in real arithmetic; property `{}`: |1 - x*r'| <= {}*|1 - x*r| + {} (`qloop prove`)",
+            t.span.start().line,
+            r.label(),
+            x.label(),
+            x.label(),
+            g(xl),
+            g(xh),
+            g(t.gain),
+            g(t.rho),
+            t.property,
+            g(t.claimed_rho),
+            g(t.eps)
+        );
+    }
+    o
+}
+
+/// The signal table's rows, with the rows of a vector's or matrix's elements merged into one
+/// (`theta[0..3]`) where every column but the name agrees.
+fn merge_vector_rows(p: &crate::ir::Program, rows: Vec<[String; 7]>) -> Vec<Vec<String>> {
+    let mut out: Vec<Vec<String>> = Vec::new();
+    let mut i = 0;
+    while i < rows.len() {
+        let Some(e) = &p.signals[i].elem else {
+            out.push(Vec::from(rows[i].clone()));
+            i += 1;
+            continue;
+        };
+        let n = p.signals[i..]
+            .iter()
+            .take_while(|s| {
+                s.kind == p.signals[i].kind && s.elem.as_ref().is_some_and(|f| f.group == e.group)
+            })
+            .count();
+        let same = n == e.len() && rows[i..i + n].iter().all(|r| r[1..] == rows[i][1..]);
+        if same && n > 1 {
+            let mut r = Vec::from(rows[i].clone());
+            r[0] = e.group.clone()
+                + &e.dims
+                    .iter()
+                    .map(|d| format!("[0..{d}]"))
+                    .collect::<String>();
+            out.push(r);
+        } else {
+            out.extend(rows[i..i + n].iter().cloned().map(Vec::from));
+        }
+        i += n;
+    }
+    out
+}
+
 /// Counts of emitted operations in `step` (both branches of every `if`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct OpCounts {
@@ -104,7 +207,7 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
                 format!("{}%", crate::text::percent(p))
             };
             [
-                s.name.clone(),
+                s.label(),
                 kind_name(s.kind).to_string(),
                 signal_range_text(plan, crate::ir::SigId(i)),
                 s.unit.clone().unwrap_or_default(),
@@ -124,13 +227,15 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
         "max |error|, one step (% of range)",
     ];
     let head: Vec<String> = head.iter().map(|h| h.to_string()).collect();
-    let rows: Vec<Vec<String>> = rows.into_iter().map(Vec::from).collect();
+    let rows = merge_vector_rows(p, rows);
     o.push_str(&table(&head, &rows));
     let _ = writeln!(o);
     let _ = writeln!(o, "Constant multiplications:");
     if plan.mults.is_empty() {
         let _ = writeln!(o, "  (none)");
     }
+    // One line per distinct multiplication, counted: an unrolled loop repeats each.
+    let mut lines: Vec<(String, usize)> = Vec::new();
     for m in &plan.mults {
         let what = m.name.clone().unwrap_or_else(|| g(m.constant));
         let how = if m.hw_mul {
@@ -154,18 +259,31 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
                 m.adders, m.shifts, m.costs.0, m.costs.1
             )
         };
-        let _ = writeln!(
-            o,
+        let line = format!(
             "  x * {what} = x * {}·2^{} ({}): {how}",
             m.m,
             -m.k,
             quantisation(m.constant, m.m, m.k)
         );
+        match lines.iter_mut().find(|(l, _)| *l == line) {
+            Some((_, n)) => *n += 1,
+            None => lines.push((line, 1)),
+        }
     }
+    for (line, n) in lines {
+        let times = if n > 1 {
+            format!(" (×{n})")
+        } else {
+            String::new()
+        };
+        let _ = writeln!(o, "{line}{times}");
+    }
+    let mut warned = Vec::new();
     for m in &plan.mults {
         let applied = m.m as f64 * 2f64.powi(-m.k);
         let rel = (applied - m.constant) / m.constant;
-        if rel.abs() > QUANTISATION_WARN {
+        if rel.abs() > QUANTISATION_WARN && !warned.contains(&(m.m, m.k, m.constant.to_bits())) {
+            warned.push((m.m, m.k, m.constant.to_bits()));
             let what = m.name.clone().unwrap_or_else(|| g(m.constant));
             let _ = writeln!(
                 o,
@@ -180,6 +298,8 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
             );
         }
     }
+    o.push_str(&recips(plan));
+    o.push_str(&tracks(plan));
     o.push_str(&comparisons(plan));
     let c = op_counts(plan);
     let _ = writeln!(o);

@@ -14,6 +14,8 @@ qloop_macros::controller!("fixtures/refute/missing_saturation.qloop");
 qloop_macros::controller!("fixtures/refute/c2_too_large.qloop");
 qloop_macros::controller!("fixtures/refute/csd_partial_sum.qloop");
 qloop_macros::controller!("fixtures/refute/property_sign_error.qloop");
+qloop_macros::controller!("fixtures/refute/recip_tracker_gain_too_large.qloop");
+qloop_macros::controller!("fixtures/refute/rls_unbounded_covariance.qloop");
 
 fn fixture(name: &str) -> (String, PathBuf) {
     let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -171,6 +173,47 @@ fn property_sign_error_is_false_in_compiled_code() {
 }
 
 #[test]
+fn recip_tracker_gain_too_large_diverges_in_compiled_code() {
+    let (plan, o) = refuted("recip_tracker_gain_too_large");
+    let (x, r) = (cex(&o, "in_x"), cex(&o, "pre_r"));
+    let mut c = recip_tracker_gain_too_large::Controller::new();
+    c.set_states(recip_tracker_gain_too_large::States {
+        r: FixedI16::from_bits(r as i16),
+    });
+    c.step(recip_tracker_gain_too_large::Inputs {
+        x: FixedI16::from_bits(x as i16),
+    });
+    let mut pre = vec![0i128; plan.prog.signals.len()];
+    pre[slot(&plan, "x")] = x;
+    pre[slot(&plan, "r")] = r;
+    let mut post = pre.clone();
+    post[slot(&plan, "r")] = c.states().r.to_bits().into();
+    assert_eq!(
+        qloop::prove::replay::property_holds(&plan, 0, &pre, &post, &[]),
+        Some(false)
+    );
+}
+
+#[test]
+fn rls_unbounded_covariance_leaves_its_range_in_compiled_code() {
+    let (_, o) = refuted("rls_unbounded_covariance");
+    let mut c = rls_unbounded_covariance::Controller::new();
+    c.set_states(rls_unbounded_covariance::States {
+        theta: FixedI16::from_bits(cex(&o, "pre_theta") as i16),
+        p: FixedI16::from_bits(cex(&o, "pre_p") as i16),
+    });
+    c.step(rls_unbounded_covariance::Inputs {
+        phi: FixedI16::from_bits(cex(&o, "in_phi") as i16),
+        y: FixedI16::from_bits(cex(&o, "in_y") as i16),
+    });
+    let p = c.states().p.to_num::<f64>();
+    assert!(
+        !(0.0..=16.0).contains(&p),
+        "the covariance stayed in range: {p}"
+    );
+}
+
+#[test]
 fn corpus_is_complete() {
     // Every fixture in the folder has a replay test above.
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fixtures/refute");
@@ -187,7 +230,9 @@ fn corpus_is_complete() {
             "claimed_range_too_narrow",
             "csd_partial_sum",
             "missing_saturation",
-            "property_sign_error"
+            "property_sign_error",
+            "recip_tracker_gain_too_large",
+            "rls_unbounded_covariance"
         ]
     );
 }

@@ -1,9 +1,10 @@
 //! The checked intermediate representation: names resolved, constants folded, real-valued.
 //!
 //! The IR says *what* a controller computes, in real arithmetic; the fixed-point plan
-//! ([`crate::lower`]) says *how*. Signals live in one table indexed by [`SigId`]; every signal
-//! has a [`Shape`], so vector and matrix states (RLS estimators) extend the table, not the
-//! statement forms, and table look-ups become one more [`Expr`] variant.
+//! ([`crate::lower`]) says *how*. Signals live in one table indexed by [`SigId`], and all of
+//! them are scalars: a vector or matrix declaration (`state theta[3]`) becomes one signal per
+//! element, marked with its [`Elem`], so range analysis, format choice, proofs and the step's
+//! code see scalars only, and only the emitters' APIs group the elements back into arrays.
 
 use crate::qformat::{QFormat, Rounding};
 use proc_macro2::Span;
@@ -35,6 +36,69 @@ pub struct Program {
     pub invariants: Vec<Invariant>,
     /// Step properties (`prove { property .. }`).
     pub properties: Vec<Property>,
+    /// The fixed-step reciprocals (`newton_recip`) of the step.
+    pub recips: Vec<Recip>,
+    /// The reciprocal trackers (`recip_track`) of the step.
+    pub tracks: Vec<Track>,
+}
+
+/// A reciprocal tracker `recip_track(r, x, G);` (see `check::track`): the state `r` follows
+/// `1/x` by `r ← r + G·(1 − x·r)`, the division-free loop of 000_b8cbacf29caa8fe2.txt
+/// eqs. 12-13.
+#[derive(Clone, Debug)]
+pub struct Track {
+    /// The tracking state.
+    pub r: SigId,
+    /// The input or state it tracks the reciprocal of.
+    pub x: SigId,
+    /// The gain `G`.
+    pub gain: f64,
+    /// `max |1 − G·x|` over the range of `x`, the contraction in real arithmetic.
+    pub rho: f64,
+    /// The factor the generated property claims (a binary fraction above `rho`).
+    pub claimed_rho: f64,
+    /// The rounding allowance the property adds.
+    pub eps: f64,
+    /// The generated property's name.
+    pub property: String,
+    /// The statement's site.
+    pub span: Span,
+}
+
+/// A fixed-step reciprocal `newton_recip(d, [LO, HI], K)` ([`crate::lang::expand`]): the
+/// `let`s holding `d` and the iterates, and what real arithmetic guarantees of the result.
+#[derive(Clone, Debug)]
+pub struct Recip {
+    /// The claimed `d`.
+    pub d: SigId,
+    /// The result `r` (the last iterate).
+    pub r: SigId,
+    /// The range of `d`.
+    pub lo: f64,
+    /// See `lo`.
+    pub hi: f64,
+    /// Newton steps.
+    pub steps: u32,
+    /// The seed: 2/(lo + hi) to 6 significant bits (a short dyadic, exact in any format).
+    pub seed: f64,
+    /// The call's site.
+    pub span: Span,
+}
+
+impl Recip {
+    /// An upper bound on `|1 − d·s|` over `d ∈ [lo, hi]` for the seed `s` (attained at an
+    /// end), nudged up by a relative 1e-12, far above its f64 rounding.
+    pub fn seed_error(&self) -> f64 {
+        let s = self.seed;
+        (1.0 - self.lo * s).abs().max((1.0 - self.hi * s).abs()) * (1.0 + 1e-12)
+    }
+
+    /// An upper bound on `1 − d·r` over `d ∈ [lo, hi]` in real arithmetic: `1 − d·r_{k+1}
+    /// = (1 − d·r_k)²`, so it is the seed's error to the power `2^K` (and `0 ≤ 1 − d·r`
+    /// after the first step).
+    pub fn real_error(&self) -> f64 {
+        self.seed_error().powi(1 << self.steps) * (1.0 + 1e-12)
+    }
 }
 
 impl Program {
@@ -85,23 +149,65 @@ pub enum SigKind {
     Local,
 }
 
-/// Shape of a signal's value. Only scalars exist today; vectors and matrices (RLS
-/// covariance, regressors) are added here with element-wise formats.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Shape {
-    /// One value.
-    Scalar,
+/// Where a scalar signal sits in a declared vector or matrix (`state P[2][2]` has the elements
+/// `P[0][0]`, `P[0][1]`, `P[1][0]`, `P[1][1]`, named `P_0_0` .. `P_1_1` in generated code).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Elem {
+    /// The declared name of the whole vector or matrix.
+    pub group: String,
+    /// This element's index, one entry per dimension.
+    pub index: Vec<usize>,
+    /// The declared dimensions (`[3]`, or `[rows, cols]`).
+    pub dims: Vec<usize>,
+}
+
+impl Elem {
+    /// The element's name in generated code: `theta_0`, `P_1_0`.
+    pub fn ident(group: &str, index: &[usize]) -> String {
+        let mut s = group.to_string();
+        for i in index {
+            s.push_str(&format!("_{i}"));
+        }
+        s
+    }
+
+    /// The element as the spec writes it: `theta[0]`, `P[1][0]`.
+    pub fn label(&self) -> String {
+        let mut s = self.group.clone();
+        for i in &self.index {
+            s.push_str(&format!("[{i}]"));
+        }
+        s
+    }
+
+    /// The row-major position of this element within its group.
+    pub fn flat(&self) -> usize {
+        self.index
+            .iter()
+            .zip(&self.dims)
+            .fold(0, |acc, (i, d)| acc * d + i)
+    }
+
+    /// The number of elements of the group.
+    pub fn len(&self) -> usize {
+        self.dims.iter().product()
+    }
+
+    /// Whether the group has no elements (never: a declared dimension is at least 1).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
 }
 
 /// One signal.
 #[derive(Clone, Debug)]
 pub struct Signal {
-    /// Name as written.
+    /// Name in generated code: as written, or `theta_0` for the element `theta[0]`.
     pub name: String,
     /// Role.
     pub kind: SigKind,
-    /// Shape.
-    pub shape: Shape,
+    /// The vector or matrix this signal is an element of, if any.
+    pub elem: Option<Elem>,
     /// Declared physical range (inputs, states; optional for outputs; none for locals).
     pub range: Option<(f64, f64)>,
     /// Initial value (states).
@@ -121,6 +227,16 @@ pub struct Signal {
     pub docs: Vec<String>,
     /// Declaration site.
     pub span: Span,
+}
+
+impl Signal {
+    /// The name as the spec writes it: `fc`, or `theta[0]` for an element of a vector.
+    pub fn label(&self) -> String {
+        match &self.elem {
+            Some(e) => e.label(),
+            None => self.name.clone(),
+        }
+    }
 }
 
 /// A statement of the body.

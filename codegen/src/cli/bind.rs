@@ -65,6 +65,18 @@ pub fn bind(
             prog.name, c.plant
         )));
     };
+    for (s, what) in [
+        (first_in, "first input (the measurement)"),
+        (first_out, "first output (the command)"),
+    ] {
+        if s.elem.is_some() {
+            return Err(fail(format!(
+                "the spec's {what} `{}` is an element of a vector: the plant exchanges one \
+                 measurement and one command per step; declare a scalar first",
+                s.label()
+            )));
+        }
+    }
     let mut notes = Vec::new();
 
     // The measurement.
@@ -163,7 +175,7 @@ pub fn bind(
                  channel of its name, and neither the {} plant nor scenario `{}` has a channel \
                  `{}`. The plant's channels: {}; rename the input, or add a `{}` channel to a \
                  scenario TOML file",
-                s.name,
+                s.label(),
                 c.plant,
                 sc.name,
                 s.name,

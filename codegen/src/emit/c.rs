@@ -22,13 +22,24 @@
 //!   (`(x · 4) >> 16` for `x >> 14`); see `byte_split`. Exact either way.
 //! * **Only `<stdint.h>` and `<stdbool.h>`**: no division, no floating point, no libc call.
 //!
+//! Vectors and matrices (`state theta[2]`, `state P[2][2]`) are arrays in the structs
+//! (`int32_t theta[2];`, `int32_t P[2][2];`, row-major), read and written element by element
+//! (`self->P[1][0]`); inside `step` every element is a scalar local named as in the plan
+//! (`P_1_0`). Macros: one `NAME_THETA_FRAC` per vector (its elements share one format), and
+//! `_MIN`/`_MAX` per element, named after the element's generated name (`NAME_THETA_0_MIN`,
+//! `NAME_P_1_0_MAX`). An element has no `_FRAC` of its own, so a vector `a_0` (`NAME_A_0_FRAC`)
+//! and the element `a[0]` (`NAME_A_0_MIN`) do not collide, and the checker refuses a signal
+//! named like another's element (`a_0_0` beside `a[2][2]`). As for scalars, names that differ
+//! only in case give the same macros.
+//!
 //! Frama-C: `step` carries an ACSL contract (valid pointers, each state inside its
 //! saturation bounds on entry and on exit). Under `__FRAMAC__` the `.c` file also defines an
 //! analysis entry point, `NAME_eva_main`, which calls `step` once on every state in range and
 //! every raw input value, so `frama-c -eva -main NAME_eva_main` proves the step free of
 //! run-time errors for all of them.
 
-use crate::ir::{SigId, SigKind};
+use super::Member;
+use crate::ir::{Program, SigId, SigKind};
 use crate::lower::lir::{LStmt, Op, ValId};
 use crate::lower::Plan;
 use crate::qformat::IntTy;
@@ -59,6 +70,31 @@ pub fn ident(name: &str) -> String {
     } else {
         name.to_string()
     }
+}
+
+/// A signal as a field of the generated structs: `fc`, or `theta[0]`, `P[1][0]` for an element
+/// of a vector or matrix (the struct holds the whole vector as one array).
+pub fn field(prog: &Program, id: SigId) -> String {
+    let s = prog.sig(id);
+    match &s.elem {
+        None => ident(&s.name),
+        Some(e) => {
+            let mut f = ident(&e.group);
+            for i in &e.index {
+                let _ = write!(f, "[{i}]");
+            }
+            f
+        }
+    }
+}
+
+/// A struct field's declarator: `fc`, `theta[2]`, `P[2][2]`.
+pub fn declarator(prog: &Program, m: &Member) -> String {
+    let mut d = ident(m.name(prog));
+    for n in m.dims() {
+        let _ = write!(d, "[{n}]");
+    }
+    d
 }
 
 /// `int16_t`, `uint32_t`, ...
@@ -122,15 +158,42 @@ fn header(plan: &Plan) -> String {
         o,
         "/* Fixed-point formats (raw = value * 2^FRAC) and raw saturation bounds. */"
     );
-    for k in [SigKind::Input, SigKind::State, SigKind::Output] {
-        for id in ids(plan, k) {
-            let s = p.sig(id);
-            let q = plan.format(id);
-            let su = s.name.to_uppercase();
-            let _ = writeln!(o, "#define {up}_{su}_FRAC {}", q.frac);
-            if let Some((lo, hi)) = plan.raw_bounds(id) {
-                let _ = writeln!(o, "#define {up}_{su}_MIN {}", c_lit(lo, q.ty));
-                let _ = writeln!(o, "#define {up}_{su}_MAX {}", c_lit(hi, q.ty));
+    let kinds = [SigKind::Input, SigKind::State, SigKind::Output];
+    let groups: Vec<Member> = kinds
+        .iter()
+        .flat_map(|k| super::members(p, *k))
+        .filter(|m| matches!(m, Member::Group { .. }))
+        .collect();
+    if let Some(g) = groups.first() {
+        // The example: the last element of a vector with bounds (an unranged output has none).
+        let last = |g: &Member| g.ids()[g.ids().len() - 1];
+        let ranged = groups.iter().find(|g| plan.raw_bounds(last(g)).is_some());
+        let e = ranged.map(|g| p.sig(last(g)));
+        let _ = writeln!(
+            o,
+            "/* A vector or matrix has one FRAC (its elements share a format) and MIN/MAX per\n\
+             \x20* element, named after the element: {up}_{}_FRAC{}. */",
+            g.name(p).to_uppercase(),
+            e.map(|e| format!(", {up}_{}_MIN for {}", e.name.to_uppercase(), e.label()))
+                .unwrap_or_default()
+        );
+    }
+    for k in kinds {
+        for m in super::members(p, k) {
+            let q = plan.format(m.first());
+            let mu = m.name(p).to_uppercase();
+            let _ = writeln!(o, "#define {up}_{mu}_FRAC {}", q.frac);
+            for id in m.ids() {
+                debug_assert_eq!(
+                    plan.format(id),
+                    q,
+                    "the elements of a vector share a format"
+                );
+                if let Some((lo, hi)) = plan.raw_bounds(id) {
+                    let su = p.sig(id).name.to_uppercase();
+                    let _ = writeln!(o, "#define {up}_{su}_MIN {}", c_lit(lo, q.ty));
+                    let _ = writeln!(o, "#define {up}_{su}_MAX {}", c_lit(hi, q.ty));
+                }
             }
         }
     }
@@ -149,17 +212,30 @@ fn header(plan: &Plan) -> String {
     }
     let strukt = |o: &mut String, kind: SigKind, what: &str, doc: &str| {
         let _ = writeln!(o, "\n/* {doc} */\ntypedef struct {n}_{what} {{");
-        let fields = ids(plan, kind);
-        for id in &fields {
-            let s = p.sig(*id);
+        let fields = super::members(p, kind);
+        for m in &fields {
+            let id = m.first();
+            let s = p.sig(id);
             let sm = &plan.summary[id.0];
+            // A vector's comment lists each element's range (they may differ).
+            let range = match m {
+                Member::Scalar(_) => crate::text::signal_range_text(plan, id),
+                Member::Group { ids, .. } => ids
+                    .iter()
+                    .map(|e| {
+                        let r = crate::text::signal_range_text(plan, *e);
+                        format!("{} {r}", p.sig(*e).label())
+                    })
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            };
             let _ = writeln!(
                 o,
                 "    {} {}; /* {}: {} {}, {} */",
-                c_ty(plan.format(*id).ty),
-                ident(&s.name),
+                c_ty(plan.format(id).ty),
+                declarator(p, m),
                 super::kind_name(kind),
-                crate::text::signal_range_text(plan, *id),
+                range,
                 s.unit.as_deref().unwrap_or(""),
                 sm.format
             );
@@ -252,7 +328,7 @@ fn body(plan: &Plan, include: bool) -> String {
         let _ = writeln!(
             o,
             "    self->{} = {};",
-            ident(&p.sig(*id).name),
+            field(p, *id),
             c_lit(plan.raw_init(*id), q.ty)
         );
     }
@@ -270,7 +346,7 @@ fn body(plan: &Plan, include: bool) -> String {
     for id in &states {
         if plan.raw_bounds(*id).is_some() {
             let su = p.sig(*id).name.to_uppercase();
-            let f = ident(&p.sig(*id).name);
+            let f = field(p, *id);
             let _ = writeln!(
                 acsl,
                 "    requires {up}_{su}_MIN <= self->{f} <= {up}_{su}_MAX;"
@@ -284,7 +360,7 @@ fn body(plan: &Plan, include: bool) -> String {
     for id in &outputs {
         if plan.raw_bounds(*id).is_some() {
             let su = p.sig(*id).name.to_uppercase();
-            let f = ident(&p.sig(*id).name);
+            let f = field(p, *id);
             let _ = writeln!(
                 ens,
                 "    ensures {up}_{su}_MIN <= out->{f} <= {up}_{su}_MAX;"
@@ -305,8 +381,8 @@ fn body(plan: &Plan, include: bool) -> String {
         let _ = writeln!(o, "    (void)in;");
     }
     for id in &states {
-        let f = ident(&p.sig(*id).name);
-        let _ = writeln!(o, "    {} {f} = self->{f};", c_ty(plan.format(*id).ty));
+        let (f, path) = (ident(&p.sig(*id).name), field(p, *id));
+        let _ = writeln!(o, "    {} {f} = self->{path};", c_ty(plan.format(*id).ty));
     }
     for id in &outputs {
         let f = ident(&p.sig(*id).name);
@@ -314,12 +390,12 @@ fn body(plan: &Plan, include: bool) -> String {
     }
     block(plan, &plan.body, 1, &mut o);
     for id in &states {
-        let f = ident(&p.sig(*id).name);
-        let _ = writeln!(o, "    self->{f} = {f};");
+        let (f, path) = (ident(&p.sig(*id).name), field(p, *id));
+        let _ = writeln!(o, "    self->{path} = {f};");
     }
     for id in &outputs {
-        let f = ident(&p.sig(*id).name);
-        let _ = writeln!(o, "    out->{f} = {f};");
+        let (f, path) = (ident(&p.sig(*id).name), field(p, *id));
+        let _ = writeln!(o, "    out->{path} = {f};");
     }
     if outputs.is_empty() {
         let _ = writeln!(o, "    out->unused_ = 0u;");
@@ -348,7 +424,7 @@ fn eva_entry(plan: &Plan) -> String {
         let _ = writeln!(
             o,
             "    s.{} = ({}){};",
-            ident(&p.sig(*id).name),
+            field(p, *id),
             c_ty(q.ty),
             eva_interval(q.ty, lo, hi)
         );
@@ -361,7 +437,7 @@ fn eva_entry(plan: &Plan) -> String {
         let _ = writeln!(
             o,
             "    i.{} = ({}){};",
-            ident(&p.sig(*id).name),
+            field(p, *id),
             c_ty(q.ty),
             eva_interval(q.ty, q.ty.min(), q.ty.max())
         );
@@ -509,7 +585,7 @@ fn expr(plan: &Plan, id: ValId) -> String {
     let t = c_ty(v.ty);
     let n = |x: &ValId| name(plan, *x);
     match &v.op {
-        Op::Input(s) => format!("in->{}", ident(&plan.prog.sig(*s).name)),
+        Op::Input(s) => format!("in->{}", field(&plan.prog, *s)),
         Op::Load(s) => ident(&plan.prog.sig(*s).name),
         Op::Const(c) => c_lit(*c, v.ty),
         Op::Cast(a) => format!("({t}){}", n(a)),

@@ -19,6 +19,10 @@
 //! void NAME_f_step(NAME_f_state *self, const NAME_f_inputs *in, NAME_f_outputs *out);
 //! ```
 //!
+//! A vector or matrix is an array field (`float theta[2];`, `float P[2][2];`, row-major), read
+//! and written element by element (`in->phi[0]`, `self->P[1][0]`); inside `step` each element
+//! is a scalar local named as in the IR (`P_1_0`).
+//!
 //! C99 with no header at all and no library call (min, max and clamp are inline), no
 //! `double` anywhere (literals carry the `f` suffix), so it compiles with
 //! `gcc -std=c99 -Wall -Wextra -Werror -Wdouble-promotion` and links without libm. On a
@@ -81,6 +85,31 @@ fn sig_ident(prog: &Program, id: SigId) -> String {
     ident(&prog.sig(id).name)
 }
 
+/// A signal as a field of the structs: `fc`, or `theta[0]`, `P[1][0]` for an element of a
+/// vector or matrix.
+pub fn field(prog: &Program, id: SigId) -> String {
+    let s = prog.sig(id);
+    match &s.elem {
+        None => ident(&s.name),
+        Some(e) => {
+            let mut f = ident(&e.group);
+            for i in &e.index {
+                let _ = write!(f, "[{i}]");
+            }
+            f
+        }
+    }
+}
+
+/// A struct field's declarator: `fc`, `theta[2]`, `P[2][2]`.
+fn declarator(prog: &Program, m: &super::Member) -> String {
+    let mut d = ident(m.name(prog));
+    for n in m.dims() {
+        let _ = write!(d, "[{n}]");
+    }
+    d
+}
+
 fn ids(prog: &Program, k: SigKind) -> Vec<SigId> {
     prog.ids_of(k).collect()
 }
@@ -140,14 +169,29 @@ fn header(prog: &Program) -> String {
     );
     let strukt = |o: &mut String, kind: SigKind, what: &str, doc: &str| {
         let _ = writeln!(o, "\n/* {doc} */\ntypedef struct {n}_f_{what} {{");
-        let fields = ids(prog, kind);
-        for id in &fields {
+        let fields = super::members(prog, kind);
+        for m in &fields {
+            // A vector's comment lists each element's range (they may differ).
+            let range = match m {
+                super::Member::Scalar(id) => range_text(prog, *id),
+                super::Member::Group { ids, .. } => {
+                    let each: Vec<String> = ids
+                        .iter()
+                        .map(|e| match prog.sig(*e).range {
+                            Some((lo, hi)) => format!("{} [{lo}, {hi}]", prog.sig(*e).label()),
+                            None => format!("{} unranged", prog.sig(*e).label()),
+                        })
+                        .collect();
+                    let unit = prog.sig(ids[0]).unit.as_deref().unwrap_or("");
+                    format!("{} {unit}", each.join(", "))
+                }
+            };
             let _ = writeln!(
                 o,
                 "    float {}; /* {}: {} */",
-                sig_ident(prog, *id),
+                declarator(prog, m),
                 super::kind_name(kind),
-                safe(&range_text(prog, *id))
+                safe(&range)
             );
         }
         if fields.is_empty() {
@@ -205,7 +249,7 @@ fn body(prog: &Program) -> String {
     let _ = writeln!(o, "void {n}_f_init({n}_f_state *self)\n{{");
     for id in &states {
         let init = prog.sig(*id).init.unwrap_or(0.0);
-        let _ = writeln!(o, "    self->{} = {};", sig_ident(prog, *id), lit(init));
+        let _ = writeln!(o, "    self->{} = {};", field(prog, *id), lit(init));
     }
     if states.is_empty() {
         let _ = writeln!(o, "    self->unused_ = 0;");
@@ -222,7 +266,7 @@ fn body(prog: &Program) -> String {
     let mut read = vec![false; prog.signals.len()];
     reads_block(&prog.body, &mut read);
     for id in &inputs {
-        let v = sat(prog, *id, format!("in->{}", sig_ident(prog, *id)));
+        let v = sat(prog, *id, format!("in->{}", field(prog, *id)));
         let name = sig_ident(prog, *id);
         let _ = writeln!(
             o,
@@ -231,20 +275,20 @@ fn body(prog: &Program) -> String {
         );
     }
     for id in &states {
-        let name = sig_ident(prog, *id);
-        let _ = writeln!(o, "    float {name} = self->{name};");
+        let (name, path) = (sig_ident(prog, *id), field(prog, *id));
+        let _ = writeln!(o, "    float {name} = self->{path};");
     }
     for id in &outputs {
         let _ = writeln!(o, "    float {} = 0.0f;", sig_ident(prog, *id));
     }
     block(prog, &prog.body, &read, 1, &mut o);
     for id in &states {
-        let name = sig_ident(prog, *id);
-        let _ = writeln!(o, "    self->{name} = {name};");
+        let (name, path) = (sig_ident(prog, *id), field(prog, *id));
+        let _ = writeln!(o, "    self->{path} = {name};");
     }
     for id in &outputs {
-        let name = sig_ident(prog, *id);
-        let _ = writeln!(o, "    out->{name} = {name};");
+        let (name, path) = (sig_ident(prog, *id), field(prog, *id));
+        let _ = writeln!(o, "    out->{path} = {name};");
     }
     if outputs.is_empty() {
         let _ = writeln!(o, "    out->unused_ = 0;");

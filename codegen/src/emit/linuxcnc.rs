@@ -19,14 +19,21 @@
 //!   feed override and is taken as such (100 % is 1).
 //! * `steps` (out u32), controller steps since load; the spec's `param`s as read-only float
 //!   params (compiled-in constants); `period_us` (read-only u32), the sample period.
+//! * A vector or matrix input or output has one pin per element (and one raw pin), named
+//!   after the element's generated name in lower case: `phi_1` (HAL `phi-1`) for `phi[1]`,
+//!   `p_1_0` (HAL `p-1-0`) for `P[1][0]`, `p_1_0_raw`, as halcompile names the pins of its own
+//!   arrays (`in-#`). Each element counts as one input or output (so the first element of a
+//!   first input vector is `spindle_load`), in declaration order, row-major. The checker keeps
+//!   the generated names apart from every other signal name; a coincidence in lower case is
+//!   refused like any other.
 //!
 //! Refused, with an [`Unrepresentable`] error rather than a component that does not build or
 //! load: a spec with no input or no output, a first output whose range maximum is not
 //! positive, a raw input or output range that does not fit a HAL s32, a name that is not a
-//! plain ASCII identifier or is reserved (see `names`), two signals or params with the same
-//! HAL name, a HAL name longer than `HAL_NAME_LEN` for instance 0, a sample period outside
-//! [1 µs, `u32::MAX` µs] (it is rounded to whole microseconds, as the C header's
-//! `NAME_PERIOD_US`).
+//! plain ASCII identifier or is reserved (see `names`), or that halcompile would change (a
+//! double or trailing underscore), two signals or params with the same HAL name, a HAL name
+//! longer than `HAL_NAME_LEN` for instance 0, a sample period outside [1 µs, `u32::MAX` µs]
+//! (it is rounded to whole microseconds, as the C header's `NAME_PERIOD_US`).
 //!
 //! The C section pushes away (`#pragma push_macro`/`#undef`) every macro halcompile makes of
 //! a pin, param or variable, `data`, and every identifier the pasted controller takes from the
@@ -87,7 +94,7 @@ struct Port {
     id: SigId,
     /// HAL name (a C identifier, `_` for `-`).
     hal: String,
-    /// Field name in the controller's C structs.
+    /// Field in the controller's C structs: `fc`, or `phi[1]` for a vector's element.
     field: String,
     q: QFormat,
     /// Raw range: the saturation bounds of an input, the proved range of an output.
@@ -135,7 +142,7 @@ fn port(plan: &Plan, id: SigId, hal: Option<&str>) -> Result<Port, Unrepresentab
                     spec,
                     format!(
                         "{kind} `{}` is not an ASCII identifier, as HAL names must be",
-                        s.name
+                        s.label()
                     ),
                 )
             }
@@ -158,14 +165,17 @@ fn port(plan: &Plan, id: SigId, hal: Option<&str>) -> Result<Port, Unrepresentab
             format!(
                 "the raw {kind} `{}` ({}, raw range [{}, {}]) does not fit a HAL s32 pin; \
                  give it fewer fraction bits (`#[q(i32, F)]` or `#[lsb(..)]`)",
-                s.name, q, raw.0, raw.1
+                s.label(),
+                q,
+                raw.0,
+                raw.1
             ),
         );
     }
     Ok(Port {
         id,
         hal,
-        field: c::ident(&s.name),
+        field: c::field(&plan.prog, id),
         q,
         raw,
     })
@@ -237,7 +247,7 @@ fn layout(plan: &Plan) -> Result<Layout, Unrepresentable> {
                 "{} {}: `{}` is a feed override (above it LinuxCNC caps adaptive-feed at 1)",
                 g(1.0 / u.scale),
                 fo.unit.as_deref().unwrap_or(""),
-                fo.name
+                fo.label()
             ),
         ),
         _ => {
@@ -246,7 +256,7 @@ fn layout(plan: &Plan) -> Result<Layout, Unrepresentable> {
                 m,
                 format!(
                     "the range maximum of {} ({}{})",
-                    fo.name,
+                    fo.label(),
                     g(m),
                     fo.unit
                         .as_deref()
@@ -265,7 +275,7 @@ fn layout(plan: &Plan) -> Result<Layout, Unrepresentable> {
                  is {} here; it must be positive (declare or widen `output {n}: [LO, HI]` with \
                  HI > 0)",
                 g(full_scale),
-                n = p.sig(first.id).name
+                n = p.sig(first.id).label()
             ),
         );
     }
@@ -288,7 +298,13 @@ fn layout(plan: &Plan) -> Result<Layout, Unrepresentable> {
 /// Every HAL name (pins, then params) and what it comes from, in declaration order.
 fn hal_names(plan: &Plan, l: &Layout) -> Vec<(String, String)> {
     let p = &plan.prog;
-    let what = |id: SigId| format!("{} `{}`", super::kind_name(p.sig(id).kind), p.sig(id).name);
+    let what = |id: SigId| {
+        format!(
+            "{} `{}`",
+            super::kind_name(p.sig(id).kind),
+            p.sig(id).label()
+        )
+    };
     let mut v: Vec<(String, String)> = Vec::new();
     for i in &l.inputs {
         v.push((i.hal.clone(), what(i.id)));
@@ -322,7 +338,9 @@ fn check_names(plan: &Plan, l: &Layout) -> Result<(), Unrepresentable> {
         .map(|v| (v.to_string(), format!("the component variable `{v}`")))
         .collect();
     for (name, what) in hal_names(plan, l) {
-        if let Some(why) = names::reserved(&name, spec) {
+        if let Some(why) =
+            names::reserved(&name, spec).or_else(|| names::changed_by_halcompile(&name))
+        {
             return err(spec, format!("{what}: {why}; rename it in the spec"));
         }
         if let Some((_, other)) = taken.iter().find(|(n, _)| *n == name) {

@@ -10,6 +10,7 @@ use crate::qformat::{IntTy, QFormat, Rounding, WIDTHS};
 
 mod const_eval;
 mod props;
+mod track;
 mod units;
 use proc_macro2::Span;
 use std::collections::{BTreeSet, HashMap};
@@ -37,7 +38,19 @@ const RESERVED: [&str; 6] = [
 
 /// Checks a parsed spec and builds the IR.
 pub fn check(ast: &SpecAst) -> Result<Program> {
-    Checker::default().run(ast)
+    let x = crate::lang::expand::expand(ast)?;
+    let mut generated: std::collections::HashSet<String> = Default::default();
+    for r in &x.recips {
+        generated.extend(r.lets.iter().cloned());
+        generated.extend(r.consts.iter().cloned());
+    }
+    Checker {
+        let_elems: x.let_elems,
+        generated,
+        recip_sites: x.recips,
+        ..Checker::default()
+    }
+    .run(&x.ast)
 }
 
 #[derive(Default)]
@@ -56,6 +69,16 @@ struct Checker {
     /// Boolean `let`s in scope (`let over = fc > FR;`), one map per block: a name stands for
     /// its condition wherever a condition is expected.
     bools: Vec<HashMap<String, BoolLet>>,
+    /// Names [`crate::lang::expand`] made, which may use the reserved prefix `qloop_`.
+    generated: std::collections::HashSet<String>,
+    /// The `newton_recip` sites.
+    recip_sites: Vec<crate::lang::expand::RecipSite>,
+    /// The default word width (known once the items before `step` are read).
+    word: u32,
+    /// The `recip_track`s of the step, for their properties.
+    pending_tracks: Vec<track::PendingTrack>,
+    /// The vector element each `let` made by [`crate::lang::expand`] stands for.
+    let_elems: HashMap<String, Elem>,
     /// How many assignments each signal has had so far (for [`BoolLet`]).
     writes: HashMap<SigId, usize>,
 }
@@ -162,6 +185,7 @@ impl Checker {
             Diag::new(ast.name.span(), "missing `step { .. }` body")
                 .help("add the update law as `step { .. }`")
         })?;
+        self.word = word.map_or(32, |w| w.0);
         let body = self.block(&block.stmts)?;
         for (i, s) in self.signals.iter().enumerate() {
             if s.kind == SigKind::Output && !self.assigned.contains(&SigId(i)) {
@@ -175,10 +199,15 @@ impl Checker {
                 .help("assign it after the `if`, or in both branches"));
             }
         }
+        let (track_props, tracks) = self.track_properties()?;
+        prove_items.extend(track_props);
         let (invariants, properties) = self.prove(&prove_items)?;
+        let recips = self.recips()?;
         Ok(Program {
             invariants,
             properties,
+            recips,
+            tracks,
             name,
             docs: ast.docs.clone(),
             period,
@@ -192,22 +221,126 @@ impl Checker {
 
     fn define(&mut self, name: &syn::Ident) -> Result<()> {
         let n = name.to_string();
+        if let Some(e) = self
+            .lookup(&n)
+            .and_then(|id| self.signals[id.0].elem.as_ref())
+        {
+            return Err(Diag::new(
+                name.span(),
+                format!("`{n}` is the generated name of `{}`", e.label()),
+            )
+            .help("generated code names vector elements `NAME_INDEX`: choose another name"));
+        }
         if self.consts.contains_key(&n) || self.lookup(&n).is_some() || self.bool_let(&n).is_some()
         {
             return Err(Diag::new(name.span(), format!("`{n}` is already defined"))
                 .help("every constant, signal and `let` needs its own name"));
         }
-        if ["min", "max", "clamp", "abs", "convert"].contains(&n.as_str()) {
+        if [
+            "min",
+            "max",
+            "clamp",
+            "abs",
+            "convert",
+            "sum",
+            "dot",
+            "newton_recip",
+            "recip_track",
+        ]
+        .contains(&n.as_str())
+        {
             return Err(Diag::new(
                 name.span(),
                 format!("`{n}` is a built-in function"),
             ));
         }
-        if n.starts_with('_') || n.starts_with("qloop_") || RESERVED.contains(&n.as_str()) {
+        let made = self.generated.contains(&n);
+        if !made
+            && (n.starts_with('_') || n.starts_with("qloop_") || RESERVED.contains(&n.as_str()))
+        {
             return Err(Diag::new(name.span(), format!("`{n}` is reserved for generated code"))
                 .help("names may not start with `_` or `qloop_` or be one of: inputs, Inputs, Outputs, States, Controller, Reference"));
         }
         Ok(())
+    }
+
+    /// For a `let` of a `newton_recip`, its clamped `d` and which it is: `'r'` for an
+    /// iterate `r_k` (in the reciprocal of `d`'s unit), `'t'` for `t_k = 2 − d·r_{k−1}`
+    /// (dimensionless).
+    fn recip_iterate_of(&self, n: &str) -> Option<(SigId, char)> {
+        if !self.generated.contains(n) {
+            return None;
+        }
+        let (site, kind, k) = split_step_name(n)?;
+        k.parse::<u32>().ok()?;
+        Some((self.lookup(&format!("{site}_d"))?, kind))
+    }
+
+    /// The format of `newton_recip`'s `let` `n`: the default word, best for its range (the
+    /// clamp of an iterate; for `t_k = 2 − d·r_{k−1}`, what `d ∈ [LO, HI]` and the previous
+    /// iterate's range give).
+    fn iterate_format(&self, n: &str) -> Option<QFormat> {
+        let (site, kind, k) = split_step_name(n)?;
+        let k: u32 = k.parse().ok()?;
+        let c = |name: String| self.consts.get(&name).map(|c| c.0);
+        let (lo, hi) = if kind == 'r' {
+            (c(format!("{site}_lo{k}"))?, c(format!("{site}_hi{k}"))?)
+        } else {
+            let (pl, ph) = if k == 1 {
+                let s = c(format!("{site}_seed"))?;
+                (s, s)
+            } else {
+                (
+                    c(format!("{site}_lo{}", k - 1))?,
+                    c(format!("{site}_hi{}", k - 1))?,
+                )
+            };
+            let r = self
+                .recip_sites
+                .iter()
+                .find(|r| r.lets[0] == format!("{site}_d"))?;
+            let (dl, dh) = (self.const_eval(&r.lo).ok()?, self.const_eval(&r.hi).ok()?);
+            (2.0 - dh * ph, 2.0 - dl * pl)
+        };
+        QFormat::best_for(IntTy::signed(self.word), lo, hi)
+    }
+
+    /// The `newton_recip` sites as IR, with their ranges evaluated and checked.
+    fn recips(&self) -> Result<Vec<Recip>> {
+        let mut out = Vec::new();
+        for r in &self.recip_sites {
+            let (lo, hi) = (self.const_eval(&r.lo)?, self.const_eval(&r.hi)?);
+            if !(lo > 0.0 && lo < hi) {
+                return Err(Diag::new(
+                    r.span,
+                    format!("`newton_recip` needs 0 < LO < HI; the range is [{lo}, {hi}]"),
+                )
+                .help("the reciprocal of a range containing 0 is unbounded; for a negative `d`, use `-newton_recip(-d, [..], K)`"));
+            }
+            let id = |n: &str| {
+                self.signals
+                    .iter()
+                    .position(|s| s.name == n)
+                    .map(SigId)
+                    .ok_or_else(|| Diag::new(r.span, "internal: a `newton_recip` let is missing"))
+            };
+            let seed = r
+                .consts
+                .iter()
+                .find(|c| c.ends_with("_seed"))
+                .and_then(|c| self.consts.get(c))
+                .map_or(f64::NAN, |c| c.0);
+            out.push(Recip {
+                seed,
+                d: id(&r.lets[0])?,
+                r: id(r.lets.last().map_or("", |s| s.as_str()))?,
+                lo,
+                hi,
+                steps: r.steps,
+                span: r.span,
+            });
+        }
+        Ok(out)
     }
 
     fn lookup(&self, n: &str) -> Option<SigId> {
@@ -216,8 +349,14 @@ impl Checker {
 
     fn constant(&mut self, c: &ConstDecl) -> Result<()> {
         self.define(&c.name)?;
-        let v = self.const_eval(&c.value)?;
+        let mut v = self.const_eval(&c.value)?;
         let name = c.name.to_string();
+        if self.generated.contains(&name) && name.ends_with("_seed") {
+            // A `newton_recip` seed: 2/(LO + HI) to 6 significant bits, so that it is exact
+            // in any format (the bound of `lower::newton` starts from its exact value) and
+            // costs at most a few adders.
+            v = crate::lower::newton::short_dyadic(v, 6);
+        }
         let inferred = self.unit_of(&c.value, &ParamUnits::new())?;
         let unit = match &c.unit {
             Some(lit) => units::same(
@@ -226,6 +365,9 @@ impl Checker {
                 c.value.span(),
                 &format!("the value of `{name}`"),
             )?,
+            // A constant `lang::expand` made of literals (a `newton_recip` seed or bound)
+            // takes the unit of what it meets, like a literal.
+            None if self.generated.contains(&name) => inferred,
             None => match inferred {
                 Ty::Lit => Ty::declared(None)?,
                 t => t,
@@ -274,7 +416,7 @@ impl Checker {
             lsb,
             claim,
             unsaturated,
-        } = fmt_attrs(&s.attrs)?;
+        } = fmt_attrs(&s.attrs, &|e| self.const_eval(e))?;
         if let Some((_, sp)) = claim {
             return Err(
                 Diag::new(sp, "`#[range]` claims go on `let` bindings").help(
@@ -290,7 +432,11 @@ impl Checker {
         }
         let unit = Ty::declared(s.unit.as_ref())?;
         let range = match &s.range {
-            Some(r) => {
+            Some(RangeDecl::PerElement(a)) => {
+                // `lang::expand` splits these over the elements; a scalar never has them.
+                return Err(Diag::new(a.span(), "per-element ranges need a vector"));
+            }
+            Some(RangeDecl::One(r)) => {
                 let (lo, hi) = (self.const_eval(&r.lo)?, self.const_eval(&r.hi)?);
                 for e in [&r.lo, &r.hi] {
                     let t = self.unit_of(e, &ParamUnits::new())?;
@@ -380,7 +526,7 @@ impl Checker {
         self.signals.push(Signal {
             name: name.clone(),
             kind,
-            shape: Shape::Scalar,
+            elem: s.elem.clone(),
             range,
             init,
             unit: s.unit.as_ref().map(|u| u.value()),
@@ -517,15 +663,28 @@ impl Checker {
                 }
                 let value = self.expr(&init.expr)?;
                 let unit = self.unit_of(&init.expr, &ParamUnits::new())?;
+                // A Newton iterate of `newton_recip` is in the reciprocal of `d`'s unit (its
+                // seed, a constant of the range's literals, may carry none).
+                let unit = match self.recip_iterate_of(&ident.to_string()) {
+                    Some((d, 'r')) => units::inverse(&self.sig_units[d.0]),
+                    Some(_) => Ty::declared(None)?,
+                    None => unit,
+                };
                 let Attrs {
                     pin,
                     lsb,
                     claim,
                     unsaturated,
-                } = fmt_attrs(&local.attrs)?;
+                } = fmt_attrs(&local.attrs, &|e| self.const_eval(e))?;
                 if let Some(sp) = unsaturated {
                     return Err(Diag::new(sp, "`#[unsaturated]` applies to states only"));
                 }
+                // A Newton iterate is stored in the default word, sized to its clamp: its
+                // product with `d` then stays a single widening multiply.
+                let pin = match (pin, self.recip_iterate_of(&ident.to_string())) {
+                    (None, Some(_)) => self.iterate_format(&ident.to_string()),
+                    (p, _) => p,
+                };
                 self.define(ident)?;
                 let id = SigId(self.signals.len());
                 let unit_text = unit.report_text();
@@ -533,7 +692,7 @@ impl Checker {
                 self.signals.push(Signal {
                     name: ident.to_string(),
                     kind: SigKind::Local,
-                    shape: Shape::Scalar,
+                    elem: self.let_elems.get(&ident.to_string()).cloned(),
                     range: None,
                     init: None,
                     unit: unit_text,
@@ -606,6 +765,9 @@ impl Checker {
             SExpr::Binary(b) if matches!(b.op, BinOp::MulAssign(_)) => {
                 Err(Diag::new(b.op.span(), "`*=` is not supported").help("write `x = x * y;`"))
             }
+            SExpr::Call(c) if path_ident(&c.func).is_some_and(|f| f == "recip_track") => {
+                self.recip_track(c, out)
+            }
             SExpr::If(i) => {
                 let cond = self.cond(&i.cond)?;
                 self.check_cond_units(&i.cond, &ParamUnits::new())?;
@@ -631,7 +793,8 @@ impl Checker {
                 Ok(())
             }
             other => Err(Diag::new(other.span(), "unsupported statement").help(
-                "`step` holds `let` bindings, assignments (`=`, `+=`, `-=`) and `if`/`else`",
+                "`step` holds `let` bindings, assignments (`=`, `+=`, `-=`), `if`/`else`, `for` \
+                 loops and `recip_track(r, x, G);`",
             )),
         }
     }
@@ -1154,7 +1317,19 @@ struct Attrs {
 }
 
 /// Reads `#[q(i32, 20)]`, `#[lsb(1e-3)]`, `#[range(LO, HI)]` and `#[unsaturated]`.
-fn fmt_attrs(attrs: &[syn::Attribute]) -> Result<Attrs> {
+/// The format attributes of a declaration; `eval` gives the value of a `#[range]` bound (a
+/// constant expression).
+/// `qloop_recip0_r3` → (`qloop_recip0`, `'r'`, `"3"`); the same for `_t3`.
+fn split_step_name(n: &str) -> Option<(&str, char, &str)> {
+    let (head, k) = n.rsplit_once('_')?;
+    let kind = k.chars().next()?;
+    if !matches!(kind, 'r' | 't') || !k[1..].chars().all(|c| c.is_ascii_digit()) || k.len() < 2 {
+        return None;
+    }
+    Some((head, kind, &k[1..]))
+}
+
+fn fmt_attrs(attrs: &[syn::Attribute], eval: &dyn Fn(&SExpr) -> Result<f64>) -> Result<Attrs> {
     let mut pin = None;
     let mut lsb = None;
     let mut claim = None;
@@ -1207,18 +1382,11 @@ fn fmt_attrs(attrs: &[syn::Attribute]) -> Result<Attrs> {
                     syn::punctuated::Punctuated::<SExpr, syn::Token![,]>::parse_terminated,
                 )
                 .map_err(Diag::from)?;
-            let bad = || Diag::new(a.span(), "expected `#[range(LO, HI)]` with number literals");
-            let v: Vec<f64> = args
-                .iter()
-                .map(|e| match e {
-                    SExpr::Lit(l) => lit_value(&l.lit),
-                    SExpr::Unary(u) if matches!(u.op, UnOp::Neg(_)) => match &*u.expr {
-                        SExpr::Lit(l) => lit_value(&l.lit).map(|x| -x),
-                        _ => Err(bad()),
-                    },
-                    _ => Err(bad()),
-                })
-                .collect::<Result<_>>()?;
+            let bad = || Diag::new(a.span(), "expected `#[range(LO, HI)]`");
+            let v: Vec<f64> = args.iter().map(eval).collect::<Result<_>>()?;
+            if v.len() != 2 {
+                return Err(bad());
+            }
             match v.as_slice() {
                 [lo, hi] if lo < hi => claim = Some(((*lo, *hi), a.span())),
                 _ => return Err(bad().help("LO < HI")),

@@ -89,6 +89,15 @@ impl Ty {
     }
 }
 
+/// The reciprocal unit: `1/N` for `N` (dimensionless for a literal).
+pub(crate) fn inverse(t: &Ty) -> Ty {
+    match t {
+        Ty::Lit => Ty::Of(Unit::ONE, "1".into()),
+        Ty::Of(u, text) if text == "1" => Ty::Of(Unit::ONE / *u, "1".into()),
+        Ty::Of(u, text) => Ty::Of(Unit::ONE / *u, format!("1/{}", wrap(text))),
+    }
+}
+
 /// A unit's text for messages: `1` reads as "dimensionless".
 fn display(text: &str) -> String {
     if text.trim().is_empty() || text.trim() == "1" {

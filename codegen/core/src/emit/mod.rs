@@ -5,7 +5,7 @@ pub mod kani;
 pub mod reference;
 pub mod rust;
 
-use crate::ir::{SigId, SigKind};
+use crate::ir::{Program, SigId, SigKind};
 use crate::lower::Plan;
 use crate::text::{bound, signal_range_text};
 use proc_macro2::TokenStream;
@@ -40,7 +40,7 @@ pub fn module_doc(plan: &Plan, what: &str) -> String {
         let sm = &plan.summary[i];
         d.push_str(&format!(
             "| `{}` | {} | {} {} | {} | {:.3e} | {} |\n",
-            s.name,
+            s.label(),
             kind_name(s.kind),
             signal_range_text(plan, crate::ir::SigId(i)),
             s.unit.as_deref().unwrap_or(""),
@@ -54,13 +54,14 @@ pub fn module_doc(plan: &Plan, what: &str) -> String {
 
 /// Lints the generated modules allow, each on purpose: one `let` per operation with `_N`
 /// temporaries and explicit casts (so every intermediate's type is visible), `max`/`min`
-/// rather than `clamp` (which has a panicking path), and defensive parentheses.
+/// rather than `clamp` (which has a panicking path), defensive parentheses, and the spec's
+/// own names (a covariance matrix is conventionally `P`).
 pub fn allowed_lints() -> TokenStream {
     quote::quote! {
         unused_mut, unused_assignments, unused_parens,
         clippy::just_underscores_and_digits, clippy::manual_clamp, clippy::unnecessary_cast,
         clippy::identity_op, clippy::let_and_return, clippy::needless_late_init,
-        clippy::double_parens, clippy::nonminimal_bool
+        clippy::double_parens, clippy::nonminimal_bool, non_snake_case
     }
 }
 
@@ -78,6 +79,38 @@ pub fn sig_doc(plan: &Plan, id: SigId) -> String {
         s.unit.as_deref().unwrap_or(""),
         sm.format
     ));
+    d
+}
+
+/// The doc line of an API field: the signal's, or for a vector or matrix its declaration's
+/// docs and each element's range and format.
+pub fn member_doc(plan: &Plan, m: &Member) -> String {
+    let Member::Group { ids, .. } = m else {
+        return sig_doc(plan, m.first());
+    };
+    let first = plan.prog.sig(ids[0]);
+    let mut d = first.docs.join("\n");
+    if !d.is_empty() {
+        d.push_str("\n\n");
+    }
+    d.push_str(&format!(
+        "Format {}{}; ranges:",
+        plan.summary[ids[0].0].format,
+        first
+            .unit
+            .as_deref()
+            .map(|u| format!(", unit {u}"))
+            .unwrap_or_default()
+    ));
+    for id in ids {
+        d.push_str(&format!(
+            " `{}` {};",
+            plan.prog.sig(*id).label(),
+            signal_range_text(plan, *id)
+        ));
+    }
+    d.pop();
+    d.push('.');
     d
 }
 
@@ -113,7 +146,7 @@ pub fn signal_tables(plan: &Plan) -> TokenStream {
     let table = |kind: SigKind, what: &str| {
         let ids: Vec<SigId> = prog.ids_of(kind).collect();
         let n = proc_macro2::Literal::usize_unsuffixed(ids.len());
-        let names = ids.iter().map(|id| prog.sig(*id).name.clone());
+        let names = ids.iter().map(|id| prog.sig(*id).label());
         let units = ids
             .iter()
             .map(|id| prog.sig(*id).unit.clone().unwrap_or_default());
@@ -146,4 +179,115 @@ pub fn signal_tables(plan: &Plan) -> TokenStream {
         table(SigKind::Output, "OUTPUT"),
     );
     quote::quote! { #i #s #o }
+}
+
+/// One field of a generated API (`Inputs`, `Outputs`, `States`, the C structs, the HAL
+/// pins' owner): a scalar signal, or all the elements of a vector or matrix, which the APIs
+/// pass as one array.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Member {
+    /// A scalar signal.
+    Scalar(SigId),
+    /// A vector or matrix: its declared name, dimensions and elements (row-major).
+    Group {
+        /// The declared name.
+        name: String,
+        /// `[n]` or `[rows, cols]`.
+        dims: Vec<usize>,
+        /// The elements, row-major.
+        ids: Vec<SigId>,
+    },
+}
+
+impl Member {
+    /// The field's name: the signal's, or the vector's.
+    pub fn name<'a>(&'a self, prog: &'a Program) -> &'a str {
+        match self {
+            Member::Scalar(id) => &prog.sig(*id).name,
+            Member::Group { name, .. } => name,
+        }
+    }
+
+    /// The signals of the field, row-major.
+    pub fn ids(&self) -> Vec<SigId> {
+        match self {
+            Member::Scalar(id) => vec![*id],
+            Member::Group { ids, .. } => ids.clone(),
+        }
+    }
+
+    /// The first (or only) signal: every element shares its format.
+    pub fn first(&self) -> SigId {
+        match self {
+            Member::Scalar(id) => *id,
+            Member::Group { ids, .. } => ids[0],
+        }
+    }
+
+    /// The dimensions: empty for a scalar.
+    pub fn dims(&self) -> &[usize] {
+        match self {
+            Member::Scalar(_) => &[],
+            Member::Group { dims, .. } => dims,
+        }
+    }
+}
+
+/// The API fields of the signals of one kind, in declaration order.
+pub fn members(prog: &Program, kind: SigKind) -> Vec<Member> {
+    let mut out: Vec<Member> = Vec::new();
+    for id in prog.ids_of(kind) {
+        match &prog.sig(id).elem {
+            None => out.push(Member::Scalar(id)),
+            Some(e) => match out.last_mut() {
+                Some(Member::Group { name, ids, .. }) if *name == e.group => ids.push(id),
+                _ => out.push(Member::Group {
+                    name: e.group.clone(),
+                    dims: e.dims.clone(),
+                    ids: vec![id],
+                }),
+            },
+        }
+    }
+    out
+}
+
+/// The Rust tokens of a field's value from its elements' values: `x`, `[a, b]`, or
+/// `[[a, b], [c, d]]`.
+pub fn nest(dims: &[usize], mut items: Vec<TokenStream>) -> TokenStream {
+    match dims {
+        [] => items.pop().unwrap_or_default(),
+        [_] => quote::quote! { [#(#items),*] },
+        [_, cols, ..] => {
+            let rows = items.chunks(*cols).map(|r| quote::quote! { [#(#r),*] });
+            quote::quote! { [#(#rows),*] }
+        }
+    }
+}
+
+/// An array type of `elem` with dimensions `dims` (`elem` itself for a scalar).
+pub fn array_ty(dims: &[usize], elem: TokenStream) -> TokenStream {
+    dims.iter().rev().fold(elem, |t, d| {
+        let d = proc_macro2::Literal::usize_unsuffixed(*d);
+        quote::quote! { [#t; #d] }
+    })
+}
+
+/// A signal as a field access path in Rust: `fc`, `theta[0]`, `P[1][0]`.
+pub fn field_path(prog: &Program, id: SigId) -> TokenStream {
+    let s = prog.sig(id);
+    match &s.elem {
+        None => {
+            let n = quote::format_ident!("{}", s.name);
+            quote::quote! { #n }
+        }
+        Some(e) => {
+            let n = quote::format_ident!("{}", e.group);
+            let idx = e
+                .index
+                .iter()
+                .map(|i| proc_macro2::Literal::usize_unsuffixed(*i));
+            quote::quote! { #n #([#idx])* }
+        }
+    }
 }

@@ -21,42 +21,60 @@ pub fn module(plan: &Plan) -> TokenStream {
         ids(SigKind::Output),
     );
     let name = |id: &crate::ir::SigId| format_ident!("{}", prog.sig(*id).name);
-    let fields = |v: &[crate::ir::SigId]| {
+    let path = |id: &crate::ir::SigId| super::field_path(prog, *id);
+    let members = |k: SigKind| super::members(prog, k);
+    let (mi, mo, ms) = (
+        members(SigKind::Input),
+        members(SigKind::Output),
+        members(SigKind::State),
+    );
+    let fields = |v: &[super::Member]| {
         v.iter()
-            .map(|id| {
-                let n = name(id);
-                let d = super::sig_doc(plan, *id);
-                quote! { #[doc = #d] pub #n: f64, }
+            .map(|m| {
+                let n = format_ident!("{}", m.name(prog));
+                let ty = super::array_ty(m.dims(), quote! { f64 });
+                let d = super::member_doc(plan, m);
+                quote! { #[doc = #d] pub #n: #ty, }
             })
             .collect::<Vec<_>>()
     };
-    let (fi, fo, fs) = (fields(&inputs), fields(&outputs), fields(&states));
-    let raw_fields = states.iter().map(|id| {
-        let n = name(id);
-        quote! { #n: f64, }
-    });
-    let inits = states.iter().map(|id| {
-        let n = name(id);
-        let v = f(prog.sig(*id).init.unwrap_or(0.0));
+    let init_field = |m: &super::Member, g: &dyn Fn(&crate::ir::SigId) -> TokenStream| {
+        let n = format_ident!("{}", m.name(prog));
+        let v = super::nest(m.dims(), m.ids().iter().map(g).collect());
         quote! { #n: #v, }
+    };
+    let (fi, fo, fs) = (fields(&mi), fields(&mo), fields(&ms));
+    let raw_fields = ms.iter().map(|m| {
+        let n = format_ident!("{}", m.name(prog));
+        let ty = super::array_ty(m.dims(), quote! { f64 });
+        quote! { #n: #ty, }
     });
-    let getters = states.iter().map(|id| {
-        let n = name(id);
-        quote! { #n: self.#n, }
-    });
+    let inits: Vec<TokenStream> = ms
+        .iter()
+        .map(|m| init_field(m, &|id| f(prog.sig(*id).init.unwrap_or(0.0))))
+        .collect();
+    let getters: Vec<TokenStream> = ms
+        .iter()
+        .map(|m| {
+            init_field(m, &|id| {
+                let p = path(id);
+                quote! { self.#p }
+            })
+        })
+        .collect();
     let setters = states.iter().map(|id| {
-        let n = name(id);
-        let v = sat(prog, *id, quote! { s.#n });
-        quote! { self.#n = #v; }
+        let p = path(id);
+        let v = sat(prog, *id, quote! { s.#p });
+        quote! { self.#p = #v; }
     });
     let read_inputs = inputs.iter().map(|id| {
-        let n = name(id);
-        let v = sat(prog, *id, quote! { inputs.#n });
+        let (n, p) = (name(id), path(id));
+        let v = sat(prog, *id, quote! { inputs.#p });
         quote! { let #n: f64 = #v; }
     });
     let load = states.iter().map(|id| {
-        let n = name(id);
-        quote! { let mut #n: f64 = self.#n; }
+        let (n, p) = (name(id), path(id));
+        quote! { let mut #n: f64 = self.#p; }
     });
     let decl_out = outputs.iter().map(|id| {
         let n = name(id);
@@ -65,27 +83,42 @@ pub fn module(plan: &Plan) -> TokenStream {
     let allows = super::allowed_lints();
     let body = block(prog, &prog.body);
     let save = states.iter().map(|id| {
-        let n = name(id);
-        quote! { self.#n = #n; }
+        let (n, p) = (name(id), path(id));
+        quote! { self.#p = #n; }
     });
-    let ret = outputs.iter().map(|id| {
-        let n = name(id);
-        quote! { #n, }
-    });
+    let ret: Vec<TokenStream> = mo
+        .iter()
+        .map(|m| match m {
+            // Field init shorthand, as before vectors existed.
+            super::Member::Scalar(id) => {
+                let n = name(id);
+                quote! { #n, }
+            }
+            _ => init_field(m, &|id| {
+                let n = name(id);
+                quote! { #n }
+            }),
+        })
+        .collect();
     let tables = super::signal_tables(plan);
     let [ni, no, ns] = [&inputs, &outputs, &states].map(|v| Literal::usize_unsuffixed(v.len()));
-    let in_vals = inputs.iter().enumerate().map(|(k, id)| {
-        let k = Literal::usize_unsuffixed(k);
-        let n = name(id);
-        quote! { #n: i[#k], }
-    });
+    let in_vals: Vec<TokenStream> = mi
+        .iter()
+        .map(|m| {
+            init_field(m, &|id| {
+                let k = inputs.iter().position(|i| i == id).unwrap_or(0);
+                let k = Literal::usize_unsuffixed(k);
+                quote! { i[#k] }
+            })
+        })
+        .collect();
     let out_vals = outputs.iter().map(|id| {
-        let n = name(id);
-        quote! { o.#n, }
+        let p = path(id);
+        quote! { o.#p, }
     });
     let state_vals = states.iter().map(|id| {
-        let n = name(id);
-        quote! { self.#n, }
+        let p = path(id);
+        quote! { self.#p, }
     });
     // Controllers without states or inputs keep the same signatures.
     let (no_states, no_inputs) = super::unused_params(states.is_empty(), inputs.is_empty());

@@ -1,17 +1,19 @@
 //! Emits the fixed-point controller as a `#![no_std]`-compatible Rust module.
 //!
 //! `step` works on raw integers only: explicit casts, shifts, adds, widening multiplies,
-//! compares. No division, no floating point, no indexing, no `unwrap`; every operation's range
+//! compares. No division, no floating point, no `unwrap`, and no indexing but the constant
+//! indices of a vector's elements on entry and exit (checked when the module compiles); every operation's range
 //! is proved, so in release builds there is no panicking path, and in debug builds an
 //! overflow check that fired would expose a wrong proof. `fixed` crate types carry the values
 //! across the API.
 
+use super::Member;
 use crate::ir::{SigId, SigKind};
 use crate::lower::lir::{LStmt, Op, ValId};
 use crate::lower::Plan;
 use crate::qformat::{IntTy, QFormat};
 use proc_macro2::{Ident, Literal, Span, TokenStream};
-use quote::{format_ident, quote};
+use quote::{format_ident, quote, ToTokens};
 
 /// The generated module for `plan`.
 pub fn module(plan: &Plan) -> TokenStream {
@@ -61,40 +63,62 @@ pub fn module(plan: &Plan) -> TokenStream {
     }
 }
 
-/// The controller's inputs, states and outputs in declaration order.
+/// The controller's inputs, states and outputs in declaration order: one entry per scalar
+/// signal (for the raw-integer API and the step's locals), and one per API field.
 struct Sigs {
     inputs: Vec<SigId>,
     states: Vec<SigId>,
     outputs: Vec<SigId>,
+    in_fields: Vec<Member>,
+    state_fields: Vec<Member>,
+    out_fields: Vec<Member>,
 }
 
 impl Sigs {
     fn new(plan: &Plan) -> Sigs {
         let kinds = |k: SigKind| plan.prog.ids_of(k).collect::<Vec<_>>();
+        let fields = |k: SigKind| super::members(&plan.prog, k);
         Sigs {
             inputs: kinds(SigKind::Input),
             states: kinds(SigKind::State),
             outputs: kinds(SigKind::Output),
+            in_fields: fields(SigKind::Input),
+            state_fields: fields(SigKind::State),
+            out_fields: fields(SigKind::Output),
         }
     }
 }
 
-/// A signal's field name.
+/// A signal's name in the step (its local variable): `fc`, `theta_0`.
 fn ident(plan: &Plan, id: SigId) -> Ident {
     format_ident!("{}", plan.prog.sig(id).name)
 }
 
-/// `Inputs`, `Outputs` and `States`: the API's `fixed` values, with their doc lines.
+/// A signal as a field path: `fc`, `theta[0]`.
+fn path(plan: &Plan, id: SigId) -> TokenStream {
+    super::field_path(&plan.prog, id)
+}
+
+/// `name: value` for an API field, the value built per element by `f` (an array literal for
+/// a vector or matrix).
+fn init_field(plan: &Plan, m: &Member, f: impl Fn(SigId) -> TokenStream) -> TokenStream {
+    let name = format_ident!("{}", m.name(&plan.prog));
+    let v = super::nest(m.dims(), m.ids().into_iter().map(f).collect());
+    quote! { #name: #v, }
+}
+
+/// `Inputs`, `Outputs` and `States`: the API's `fixed` values (arrays for vectors and
+/// matrices), with their doc lines.
 fn api_structs(plan: &Plan, sigs: &Sigs) -> TokenStream {
-    let field = |id: &SigId| {
-        let name = ident(plan, *id);
-        let ty = fixed_ty(plan.format(*id));
-        let d = super::sig_doc(plan, *id);
+    let field = |m: &Member| {
+        let name = format_ident!("{}", m.name(&plan.prog));
+        let ty = super::array_ty(m.dims(), fixed_ty(plan.format(m.first())));
+        let d = super::member_doc(plan, m);
         quote! { #[doc = #d] pub #name: #ty, }
     };
-    let in_fields = sigs.inputs.iter().map(field);
-    let out_fields = sigs.outputs.iter().map(field);
-    let st_fields = sigs.states.iter().map(field);
+    let in_fields = sigs.in_fields.iter().map(field);
+    let out_fields = sigs.out_fields.iter().map(field);
+    let st_fields = sigs.state_fields.iter().map(field);
     quote! {
         /// Inputs of one step. Each is clamped to its declared range on entry.
         #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -112,9 +136,12 @@ fn api_structs(plan: &Plan, sigs: &Sigs) -> TokenStream {
 
 /// `Controller` (its states as raw integers) and its `Default`.
 fn controller_struct(plan: &Plan, sigs: &Sigs) -> TokenStream {
-    let raw_fields = sigs.states.iter().map(|id| {
-        let name = ident(plan, *id);
-        let ty = int_ty(plan.format(*id).ty);
+    let raw_fields = sigs.state_fields.iter().map(|m| {
+        let name = format_ident!("{}", m.name(&plan.prog));
+        let ty = super::array_ty(
+            m.dims(),
+            int_ty(plan.format(m.first()).ty).into_token_stream(),
+        );
         quote! { #name: #ty, }
     });
     quote! {
@@ -133,22 +160,23 @@ fn controller_struct(plan: &Plan, sigs: &Sigs) -> TokenStream {
 /// `new`, `states` and `set_states` (which saturates each state to its bounds).
 fn state_methods(plan: &Plan, sigs: &Sigs) -> TokenStream {
     let states = &sigs.states;
-    let raw_inits = states.iter().map(|id| {
-        let name = ident(plan, *id);
-        let lit = lit(plan.raw_init(*id), plan.format(*id).ty);
-        quote! { #name: #lit, }
-    });
-    let getters = states.iter().map(|id| {
-        let name = ident(plan, *id);
-        let ty = fixed_ty(plan.format(*id));
-        quote! { #name: <#ty>::from_bits(self.#name), }
+    let raw_inits = sigs
+        .state_fields
+        .iter()
+        .map(|m| init_field(plan, m, |id| lit(plan.raw_init(id), plan.format(id).ty)));
+    let getters = sigs.state_fields.iter().map(|m| {
+        init_field(plan, m, |id| {
+            let p = path(plan, id);
+            let ty = fixed_ty(plan.format(id));
+            quote! { <#ty>::from_bits(self.#p) }
+        })
     });
     let setters = states.iter().map(|id| {
-        let name = ident(plan, *id);
+        let p = path(plan, *id);
         let q = plan.format(*id);
         let (lo, hi) = plan.bounds(*id);
         let (lo, hi) = (lit(lo, q.ty), lit(hi, q.ty));
-        quote! { self.#name = ::core::cmp::max(::core::cmp::min(s.#name.to_bits(), #hi), #lo); }
+        quote! { self.#p = ::core::cmp::max(::core::cmp::min(s.#p.to_bits(), #hi), #lo); }
     });
     // Controllers without states keep the same signature.
     let (no_states, _) = super::unused_params(states.is_empty(), false);
@@ -171,36 +199,39 @@ fn state_methods(plan: &Plan, sigs: &Sigs) -> TokenStream {
     }
 }
 
-/// `state_bits` and `step_bits`: the raw-integer API for generic runners.
+/// `state_bits` and `step_bits`: the raw-integer API for generic runners, one entry per
+/// scalar (a vector's elements in a row, row-major).
 fn bits_methods(plan: &Plan, sigs: &Sigs) -> TokenStream {
     let (inputs, states, outputs) = (&sigs.inputs, &sigs.states, &sigs.outputs);
     let [ni, no, ns] = [inputs, outputs, states].map(|v| Literal::usize_unsuffixed(v.len()));
-    let in_bits = inputs.iter().enumerate().map(|(k, id)| {
-        let k = Literal::usize_unsuffixed(k);
-        let name = ident(plan, *id);
-        let q = plan.format(*id);
-        let (ty, fty) = (int_ty(q.ty), fixed_ty(q));
-        // Saturated to the type: its limits as i64 (`u64::MAX as i64` would be -1; `check`
-        // refuses u64 inputs, so that never happens, but the clamp stays right for any type).
-        let hi = if q.ty.max() > i64::MAX as i128 {
-            quote! { i64::MAX }
-        } else {
-            quote! { #ty::MAX as i64 }
-        };
-        quote! {
-            #name: <#fty>::from_bits(::core::cmp::max(
-                ::core::cmp::min(i[#k], #hi),
-                #ty::MIN as i64,
-            ) as #ty),
-        }
+    let in_bits = sigs.in_fields.iter().map(|m| {
+        init_field(plan, m, |id| {
+            let k = inputs.iter().position(|i| *i == id).unwrap_or(0);
+            let k = Literal::usize_unsuffixed(k);
+            let q = plan.format(id);
+            let (ty, fty) = (int_ty(q.ty), fixed_ty(q));
+            // Saturated to the type: its limits as i64 (`u64::MAX as i64` would be -1; `check`
+            // refuses u64 inputs, so that never happens, but the clamp stays right for any type).
+            let hi = if q.ty.max() > i64::MAX as i128 {
+                quote! { i64::MAX }
+            } else {
+                quote! { #ty::MAX as i64 }
+            };
+            quote! {
+                <#fty>::from_bits(::core::cmp::max(
+                    ::core::cmp::min(i[#k], #hi),
+                    #ty::MIN as i64,
+                ) as #ty)
+            }
+        })
     });
     let out_bits = outputs.iter().map(|id| {
-        let name = ident(plan, *id);
-        quote! { o.#name.to_bits() as i64, }
+        let p = path(plan, *id);
+        quote! { o.#p.to_bits() as i64, }
     });
     let state_bits = states.iter().map(|id| {
-        let name = ident(plan, *id);
-        quote! { self.#name as i64, }
+        let p = path(plan, *id);
+        quote! { self.#p as i64, }
     });
     // Controllers without inputs keep the same signature.
     let (_, no_inputs) = super::unused_params(false, inputs.is_empty());
@@ -225,9 +256,9 @@ fn bits_methods(plan: &Plan, sigs: &Sigs) -> TokenStream {
 /// `step`: loads the states, runs the plan's body, saves the states, returns the outputs.
 fn step_method(plan: &Plan, sigs: &Sigs) -> TokenStream {
     let load_states = sigs.states.iter().map(|id| {
-        let name = ident(plan, *id);
+        let (name, p) = (ident(plan, *id), path(plan, *id));
         let ty = int_ty(plan.format(*id).ty);
-        quote! { let mut #name: #ty = self.#name; }
+        quote! { let mut #name: #ty = self.#p; }
     });
     let decl_outputs = sigs.outputs.iter().map(|id| {
         let name = ident(plan, *id);
@@ -236,13 +267,15 @@ fn step_method(plan: &Plan, sigs: &Sigs) -> TokenStream {
     });
     let body = block(plan, &plan.body);
     let save_states = sigs.states.iter().map(|id| {
-        let name = ident(plan, *id);
-        quote! { self.#name = #name; }
+        let (name, p) = (ident(plan, *id), path(plan, *id));
+        quote! { self.#p = #name; }
     });
-    let ret = sigs.outputs.iter().map(|id| {
-        let name = ident(plan, *id);
-        let ty = fixed_ty(plan.format(*id));
-        quote! { #name: <#ty>::from_bits(#name), }
+    let ret = sigs.out_fields.iter().map(|m| {
+        init_field(plan, m, |id| {
+            let name = ident(plan, id);
+            let ty = fixed_ty(plan.format(id));
+            quote! { <#ty>::from_bits(#name) }
+        })
     });
     // A step that reads no input still takes them (one signature for every controller).
     let unused_inputs = if plan.vals.iter().any(|v| matches!(v.op, Op::Input(_))) {
@@ -360,7 +393,7 @@ fn op_expr(plan: &Plan, id: ValId) -> TokenStream {
     let n = |x: &ValId| val_name(plan, *x);
     match &v.op {
         Op::Input(s) => {
-            let f = format_ident!("{}", plan.prog.sig(*s).name);
+            let f = path(plan, *s);
             quote! { inputs.#f.to_bits() }
         }
         Op::Load(s) => {

@@ -62,7 +62,8 @@ pub enum SignalKw {
     Output,
 }
 
-/// `input NAME: [LO, HI] "unit";`, `state NAME: [LO, HI] "unit" = INIT;`, `output NAME ...;`
+/// `input NAME: [LO, HI] "unit";`, `state NAME: [LO, HI] "unit" = INIT;`, `output NAME ...;`,
+/// and their vector and matrix forms `state theta[3]: ..`, `state P[3][3]: ..`.
 #[derive(Clone)]
 pub struct SignalDecl {
     /// Outer attributes: docs, `#[q(i32, 20)]`, `#[lsb(1e-3)]`.
@@ -73,12 +74,25 @@ pub struct SignalDecl {
     pub kw_span: Span,
     /// Signal name.
     pub name: Ident,
-    /// `[LO, HI]`, if given.
-    pub range: Option<RangeAst>,
+    /// `[N]` or `[ROWS][COLS]` after the name: a vector or matrix of signals.
+    pub dims: Vec<Expr>,
+    /// `[LO, HI]`, or per-element ranges `[[LO, HI], ..]` for a vector or matrix.
+    pub range: Option<RangeDecl>,
     /// Physical unit, free text.
     pub unit: Option<LitStr>,
-    /// `= INIT` for states.
+    /// `= INIT` for states (an array literal `[a, b, ..]` for a vector or matrix).
     pub init: Option<Expr>,
+    /// Set by [`crate::lang::expand`] on the scalar declarations it makes from a vector's.
+    pub elem: Option<crate::ir::Elem>,
+}
+
+/// A declared range: one for the signal (or for every element), or one per element.
+#[derive(Clone)]
+pub enum RangeDecl {
+    /// `[LO, HI]`.
+    One(Box<RangeAst>),
+    /// `[[LO, HI], [LO, HI], ..]`, row-major (nested rows allowed), one per element.
+    PerElement(syn::ExprArray),
 }
 
 /// A `[LO, HI]` range with its span.

@@ -85,9 +85,21 @@ fn parse_item(input: ParseStream) -> syn::Result<Item> {
             (SignalKw::Output, input.parse::<kw::output>()?.span)
         };
         let name: Ident = input.parse()?;
+        let mut dims = Vec::new();
+        while input.peek(syn::token::Bracket) {
+            let content;
+            bracketed!(content in input);
+            let d: Expr = content.parse()?;
+            if !content.is_empty() {
+                return Err(content.error(
+                    "a dimension is one number: `x[3]` for a vector, `P[3][3]` for a matrix",
+                ));
+            }
+            dims.push(d);
+        }
         let range = if input.peek(Token![:]) {
             input.parse::<Token![:]>()?;
-            Some(parse_range(input)?)
+            Some(parse_range_decl(input)?)
         } else {
             None
         };
@@ -104,9 +116,11 @@ fn parse_item(input: ParseStream) -> syn::Result<Item> {
             kind,
             kw_span,
             name,
+            dims,
             range,
             unit,
             init,
+            elem: None,
         })))
     } else if la.peek(kw::param) || la.peek(Token![const]) {
         let is_param = if input.peek(kw::param) {
@@ -254,6 +268,34 @@ fn parse_range(input: ParseStream) -> syn::Result<RangeAst> {
         return Err(content.error("a range is written `[LO, HI]`"));
     }
     Ok(RangeAst { lo, hi, span })
+}
+
+/// A signal's declared range: `[LO, HI]`, or per-element ranges `[[LO, HI], [LO, HI], ..]`.
+fn parse_range_decl(input: ParseStream) -> syn::Result<RangeDecl> {
+    let content;
+    let bracket = bracketed!(content in input);
+    let span = bracket.span.join();
+    let items = syn::punctuated::Punctuated::<Expr, Token![,]>::parse_terminated(&content)?;
+    let arrays = items.iter().filter(|e| matches!(e, Expr::Array(_))).count();
+    if arrays == 0 && items.len() == 2 && !items.trailing_punct() {
+        let mut it = items.into_iter();
+        if let (Some(lo), Some(hi)) = (it.next(), it.next()) {
+            return Ok(RangeDecl::One(Box::new(RangeAst { lo, hi, span })));
+        }
+        return Err(syn::Error::new(span, "a range is written `[LO, HI]`"));
+    }
+    if arrays > 0 && arrays == items.len() {
+        return Ok(RangeDecl::PerElement(syn::ExprArray {
+            attrs: Vec::new(),
+            bracket_token: bracket,
+            elems: items,
+        }));
+    }
+    Err(syn::Error::new(
+        span,
+        "a range is written `[LO, HI]`; a vector's or matrix's per-element ranges \
+         `[[LO, HI], [LO, HI], ..]`",
+    ))
 }
 
 /// The text of `///` doc attributes, one entry per line, leading space trimmed.

@@ -21,6 +21,7 @@ mod const_mul;
 pub mod dce;
 mod err_bound;
 pub mod lir;
+pub mod newton;
 mod rounding;
 pub mod shift_add;
 pub mod target;
@@ -180,6 +181,7 @@ pub fn lower(prog: &Program, target: &Target) -> Result<Plan> {
             formats[i] = Some(choose_format(s, prog.word)?);
         }
     }
+    unify_groups(prog, &mut formats)?;
     let unranged: Vec<SigId> = prog
         .ids_of(SigKind::Output)
         .filter(|id| formats[id.0].is_none())
@@ -201,7 +203,7 @@ pub fn lower(prog: &Program, target: &Target) -> Result<Plan> {
     let mut unstable = unranged[0];
     for _ in 0..UNRANGED_PASSES {
         for &id in &unranged {
-            let (lo, hi) = ranges[&id];
+            let (lo, hi) = group_hull(prog, id, &ranges);
             let s = prog.sig(id);
             let q = QFormat::best_for(IntTy::signed(prog.word), lo, hi).ok_or_else(|| {
                 Diag::new(
@@ -241,6 +243,53 @@ pub fn lower(prog: &Program, target: &Target) -> Result<Plan> {
         ),
     )
     .help("declare its range (`output y: [LO, HI];`) so it saturates, or pin a format"))
+}
+
+/// Gives every element of a vector or matrix one format (the API passes it as an array of
+/// one `fixed` type): the format of the hull of the elements' ranges, checked against each
+/// element's own range.
+fn unify_groups(prog: &Program, formats: &mut [Option<QFormat>]) -> Result<()> {
+    let mut groups: std::collections::BTreeMap<&str, Vec<usize>> = Default::default();
+    for (i, s) in prog.signals.iter().enumerate() {
+        if let (Some(e), Some(_)) = (&s.elem, formats[i]) {
+            groups.entry(&e.group).or_default().push(i);
+        }
+    }
+    for ids in groups.values() {
+        if ids.iter().all(|i| formats[*i] == formats[ids[0]]) {
+            continue;
+        }
+        let mut hull = prog.signals[ids[0]].clone();
+        for i in ids {
+            if let (Some((lo, hi)), Some((a, b))) = (prog.signals[*i].range, hull.range) {
+                hull.range = Some((lo.min(a), hi.max(b)));
+            }
+        }
+        let q = choose_format(&hull, prog.word)?;
+        for i in ids {
+            let mut one = prog.signals[*i].clone();
+            one.pin = Some(q);
+            formats[*i] = Some(choose_format(&one, prog.word)?);
+        }
+    }
+    Ok(())
+}
+
+/// The hull of the ranges in `ranges` of `id` and of the other elements of its vector.
+fn group_hull(prog: &Program, id: SigId, ranges: &HashMap<SigId, (f64, f64)>) -> (f64, f64) {
+    let own = ranges[&id];
+    let Some(e) = &prog.sig(id).elem else {
+        return own;
+    };
+    ranges
+        .iter()
+        .filter(|(o, _)| {
+            prog.sig(**o)
+                .elem
+                .as_ref()
+                .is_some_and(|f| f.group == e.group)
+        })
+        .fold(own, |(lo, hi), (_, &(a, b))| (lo.min(a), hi.max(b)))
 }
 
 /// Widens `id`'s hull in `map` to include `[lo, hi]`.

@@ -2,18 +2,24 @@
 //! the colliding macros, the float conversion, `EXTRA_SETUP` and the HAL function.
 
 use super::{c, double_c, hal_names, pow2_c, Layout, Port, MARKERS, VARIABLES};
+use crate::ir::SigKind;
 use crate::lower::Plan;
 use crate::qformat::Rounding;
 use crate::text::g;
 use std::fmt::Write;
 
 /// The names pushed away around the controller and glue: every HAL name and variable of the
-/// component, `data`, and every identifier the controller takes from the spec.
+/// component, `data`, and every identifier the controller takes from the spec (the signals'
+/// names, and the names of the vectors its structs hold as arrays).
 fn pushed(plan: &Plan, l: &Layout) -> Vec<String> {
     let mut v: Vec<String> = hal_names(plan, l).into_iter().map(|(n, _)| n).collect();
     v.extend(VARIABLES.iter().map(|s| s.to_string()));
     v.push("data".into());
     v.extend(plan.prog.signals.iter().map(|s| c::ident(&s.name)));
+    v.extend(plan.prog.signals.iter().filter_map(|s| match &s.elem {
+        Some(e) if s.kind != SigKind::Local => Some(c::ident(&e.group)),
+        _ => None,
+    }));
     let mut seen = std::collections::HashSet::new();
     v.retain(|n| seen.insert(n.clone()));
     v
@@ -22,10 +28,7 @@ fn pushed(plan: &Plan, l: &Layout) -> Vec<String> {
 /// A C initialiser list of one entry per port, with the spec names as a comment.
 fn c_array(ports: &[Port], plan: &Plan, f: impl Fn(&Port) -> String) -> String {
     let vals: Vec<String> = ports.iter().map(f).collect();
-    let names: Vec<&str> = ports
-        .iter()
-        .map(|p| plan.prog.sig(p.id).name.as_str())
-        .collect();
+    let names: Vec<String> = ports.iter().map(|p| plan.prog.sig(p.id).label()).collect();
     format!("{{ {} }}; /* {} */", vals.join(", "), names.join(", "))
 }
 

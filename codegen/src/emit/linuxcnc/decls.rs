@@ -87,7 +87,7 @@ fn notes(plan: &Plan, l: &Layout, o: &mut String) {
             format!(
                 "\\\\fB{}\\\\fR (the spec's input {}, {}{}, {}): raw = {} in [{}, {}].",
                 names::dashed(&i.hal),
-                s.name,
+                s.label(),
                 signal_range_text(plan, i.id),
                 unit(&s.unit),
                 i.q,
@@ -109,7 +109,7 @@ fn notes(plan: &Plan, l: &Layout, o: &mut String) {
             names::dashed(&out.hal),
             names::dashed(&out.hal),
             pow2_text(-out.q.frac),
-            p.sig(out.id).name,
+            p.sig(out.id).label(),
             out.q
         );
     }
@@ -179,7 +179,7 @@ fn pins(plan: &Plan, l: &Layout, o: &mut String) {
             names::string(&format!(
                 "{}The spec's input {}, declared range {}.",
                 doc_prefix(&s.docs),
-                s.name,
+                s.label(),
                 range(i.id)
             ))
         );
@@ -203,7 +203,7 @@ fn pins(plan: &Plan, l: &Layout, o: &mut String) {
             names::string(&format!(
                 "{}The spec's output {}, range {}.",
                 doc_prefix(&s.docs),
-                s.name,
+                s.label(),
                 range(out.id)
             ))
         );

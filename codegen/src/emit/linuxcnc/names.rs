@@ -5,6 +5,11 @@
 //! name and defines a few file-scope symbols of its own; the RTAPI headers and GCC predefine
 //! more. A HAL name must therefore be a plain lower-case C identifier that none of these use,
 //! and its full HAL name (`PREFIX.0.NAME`, `_` shown as `-`) must fit `HAL_NAME_LEN`.
+//!
+//! A vector's element is a pin of its own, named after the element's generated name
+//! (`theta_0`, `p_1_0`; HAL `theta-0`, `p-1-0`): the name halcompile gives the pins of its
+//! own arrays (`pin in float in-#[2]` is `in-0`, `in-1`), and the same identifier in C as
+//! the pin's macro, so one uniqueness check in C covers HAL too.
 
 /// `HAL_NAME_LEN` of LinuxCNC's `hal.h`: the longest pin, param or function name.
 pub const HAL_NAME_LEN: usize = 47;
@@ -117,6 +122,19 @@ pub fn reserved(name: &str, spec: &str) -> Option<String> {
         })
 }
 
+/// Why halcompile would give the pin or param `name` another name than `name` in C or than
+/// [`dashed`] in HAL, if it would: it merges a run of underscores into one in C (`x__0` is the
+/// macro `x_0`) and drops a trailing one in HAL (`x_` is `x`). A vector `x_[2]` has such
+/// elements (`x__0`).
+pub fn changed_by_halcompile(name: &str) -> Option<String> {
+    (name.contains("__") || name.ends_with('_')).then(|| {
+        format!(
+            "halcompile would rename `{name}` (it merges repeated underscores and drops a \
+             trailing one)"
+        )
+    })
+}
+
 /// A name as HAL shows it: `_` becomes `-`.
 pub fn dashed(name: &str) -> String {
     name.replace('_', "-")
@@ -167,6 +185,9 @@ mod tests {
         assert!(reserved("_a", "x").is_some());
         assert!(reserved("feed", "x").is_none());
         assert_eq!(dashed("k_loop"), "k-loop");
+        assert!(changed_by_halcompile("x__0").is_some());
+        assert!(changed_by_halcompile("x_").is_some());
+        assert!(changed_by_halcompile("p_1_0_raw").is_none());
     }
 
     #[test]

@@ -11,7 +11,7 @@ use quote::quote;
 /// The harness.
 pub(super) fn harness(plan: &Plan, sigs: &Sigs, invs: &Invariants) -> TokenStream {
     let prog = &plan.prog;
-    let st_names = &sigs.st_names;
+    let st_paths = &sigs.st_paths;
     let init_doc = format!(
         "Initial state: `{}::Controller::new()` is inside the state bounds and satisfies every \
          invariant.",
@@ -43,7 +43,7 @@ pub(super) fn harness(plan: &Plan, sigs: &Sigs, invs: &Invariants) -> TokenStrea
         #[cfg_attr(kani, kani::solver(kissat))]
         fn initial() {
             let s = Controller::new().states();
-            let pre = states_raw(#(s.#st_names.to_bits()),*);
+            let pre = states_raw(#(s.#st_paths.to_bits()),*);
             assert_in_bounds(&pre, "initially");
             #(#init_invs)*
         }

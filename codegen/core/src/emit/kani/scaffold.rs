@@ -18,10 +18,12 @@ pub(super) fn items(sigs: &Sigs, invs: &Invariants) -> TokenStream {
         st_args,
         in_tys,
         st_tys,
-        in_fixed,
-        st_fixed,
         st_bounds,
         in_ranges,
+        st_paths,
+        out_paths,
+        states_value,
+        inputs_value,
         ..
     } = sigs;
     let bound_checks = st_names.iter().zip(st_bounds).map(|(n, (lo, hi))| {
@@ -109,12 +111,12 @@ pub(super) fn items(sigs: &Sigs, invs: &Invariants) -> TokenStream {
         /// states and the raw outputs.
         fn step(#(#in_args: #in_tys,)* #(#st_args: #st_tys,)*) -> (StateRaw, OutputRaw) {
             let mut ctl = Controller::new();
-            ctl.set_states(States { #(#st_names: <#st_fixed>::from_bits(#st_args),)* });
-            let out = ctl.step(Inputs { #(#in_names: <#in_fixed>::from_bits(#in_args),)* });
+            ctl.set_states(States { #states_value });
+            let out = ctl.step(Inputs { #inputs_value });
             let s = ctl.states();
             (
-                states_raw(#(s.#st_names.to_bits()),*),
-                OutputRaw { #(#out_names: i128::from(out.#out_names.to_bits()),)* },
+                states_raw(#(s.#st_paths.to_bits()),*),
+                OutputRaw { #(#out_names: i128::from(out.#out_paths.to_bits()),)* },
             )
         }
     }

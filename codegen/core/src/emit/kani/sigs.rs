@@ -22,12 +22,15 @@ pub(super) struct Sigs {
     /// Raw storage types.
     pub in_tys: Vec<Ident>,
     pub st_tys: Vec<Ident>,
-    /// `fixed` types of the controller's API.
-    pub in_fixed: Vec<TokenStream>,
-    pub st_fixed: Vec<TokenStream>,
     /// Raw bounds of each state and declared (inward-quantised) range of each input.
     pub st_bounds: Vec<(i128, i128)>,
     pub in_ranges: Vec<(i128, i128)>,
+    /// Field paths in the controller's API (`theta[0]` for a vector's element).
+    pub st_paths: Vec<TokenStream>,
+    pub out_paths: Vec<TokenStream>,
+    /// `States { .. }` from the harness arguments `st_*`, and `Inputs { .. }` from `in_*`.
+    pub states_value: TokenStream,
+    pub inputs_value: TokenStream,
 }
 
 impl Sigs {
@@ -44,7 +47,28 @@ impl Sigs {
         let arg = |pre: &str, id: &SigId| format_ident!("{pre}_{}", prog.sig(*id).name);
         let storage = |id: &SigId| int_ty(plan.format(*id).ty);
         let fixed = |id: &SigId| fixed_ty(plan.format(*id));
+        let path = |id: &SigId| crate::emit::field_path(prog, *id);
+        let value = |k: SigKind, pre: &str| {
+            let fields = crate::emit::members(prog, k).into_iter().map(|m| {
+                let n = format_ident!("{}", m.name(prog));
+                let items = m
+                    .ids()
+                    .iter()
+                    .map(|id| {
+                        let (f, a) = (fixed(id), arg(pre, id));
+                        quote! { <#f>::from_bits(#a) }
+                    })
+                    .collect();
+                let v = crate::emit::nest(m.dims(), items);
+                quote! { #n: #v, }
+            });
+            quote! { #(#fields)* }
+        };
         Sigs {
+            st_paths: states.iter().map(path).collect(),
+            out_paths: outputs.iter().map(path).collect(),
+            states_value: value(SigKind::State, "st"),
+            inputs_value: value(SigKind::Input, "in"),
             in_names: inputs.iter().map(name).collect(),
             st_names: states.iter().map(name).collect(),
             out_names: outputs.iter().map(name).collect(),
@@ -52,8 +76,6 @@ impl Sigs {
             st_args: states.iter().map(|id| arg("st", id)).collect(),
             in_tys: inputs.iter().map(storage).collect(),
             st_tys: states.iter().map(storage).collect(),
-            in_fixed: inputs.iter().map(fixed).collect(),
-            st_fixed: states.iter().map(fixed).collect(),
             st_bounds: states.iter().map(|id| plan.bounds(*id)).collect(),
             in_ranges: inputs.iter().map(|id| plan.bounds(*id)).collect(),
             states,
