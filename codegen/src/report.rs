@@ -18,7 +18,7 @@ fn recips(plan: &Plan) -> String {
     let mut o =
         String::from("\nFixed-step reciprocals (`newton_recip`, of d clamped to its range):\n");
     for r in &p.recips {
-        let e = r.real_error();
+        let e = r.real_error(&p.tables);
         let total = match crate::lower::newton::recip_bound(plan, r) {
             Some(b) => format!(
                 "with the rounding of each step (lower::newton): |1 - d*r| <= {}",
@@ -39,7 +39,10 @@ fn recips(plan: &Plan) -> String {
             r.span.start().line,
             g(r.lo),
             g(r.hi),
-            g(r.seed),
+            match r.seed_table {
+                Some((t, _)) => format!("table `{}`", p.tables[t].name),
+                None => g(r.seed),
+            },
             r.steps,
             bound(e),
         );
@@ -72,6 +75,53 @@ fn tracks(plan: &Plan) -> String {
             t.property,
             g(t.claimed_rho),
             g(t.eps)
+        );
+    }
+    o
+}
+
+/// The tables: grid, the proved interpolation error, and the verdict on a claimed one.
+fn tables(plan: &Plan) -> String {
+    let p = &plan.prog;
+    if p.tables.is_empty() {
+        return String::new();
+    }
+    let mut o = String::from(
+        "\nTables (linear interpolation; the error column adds the interpolation error):\n",
+    );
+    for t in &p.tables {
+        let arrays: Vec<String> = plan
+            .tables
+            .iter()
+            .filter(|l| p.tables[l.table].name == t.name)
+            .map(|l| format!("{} x {}", l.entries.len(), l.format))
+            .collect();
+        let claim = match t.claim_verdict() {
+            None => String::new(),
+            Some(qloop_core::ir::TableClaim::Proved) => format!("; claimed error {}: proved", g(t.claim.unwrap_or(0.0))),
+            Some(qloop_core::ir::TableClaim::Refuted { x, err }) => format!(
+                "; claimed error {}: REFUTED at x = {} (|L(x) - f(x)| = {})",
+                g(t.claim.unwrap_or(0.0)),
+                g(x),
+                bound(err)
+            ),
+            Some(qloop_core::ir::TableClaim::Unknown) => format!(
+                "; claimed error {}: UNKNOWN (the curvature bound is larger; no sampled point exceeds the claim)",
+                g(t.claim.unwrap_or(0.0))
+            ),
+        };
+        let _ = writeln!(
+            o,
+            "  line {}: {} over [{}, {}], step {} ({} segments; arrays {}): |L(x) - f(x)| <= {} (curvature), at least {} (sampled){claim}",
+            t.span.start().line,
+            t.name,
+            g(t.lo),
+            g(t.hi),
+            g(t.step),
+            t.segments(),
+            if arrays.is_empty() { "none: unused".to_string() } else { arrays.join(", ") },
+            bound(t.interp_err),
+            bound(t.witness.1),
         );
     }
     o
@@ -300,6 +350,7 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
     }
     o.push_str(&recips(plan));
     o.push_str(&tracks(plan));
+    o.push_str(&tables(plan));
     o.push_str(&comparisons(plan));
     let c = op_counts(plan);
     let _ = writeln!(o);

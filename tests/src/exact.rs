@@ -76,16 +76,37 @@ pub fn step(prog: &Program, vars: &mut [Option<Q>]) -> Vec<Decision> {
             }
         }
     }
-    let mut d = Decisions::default();
+    let mut d = Decisions {
+        tables: prog.tables.clone(),
+        ..Decisions::default()
+    };
     block(prog, &prog.body, vars, &mut d);
     d.made
 }
 
-/// Decisions so far, and the number of the next comparison.
+/// Decisions so far, and the number of the next comparison (and the tables the step reads).
 #[derive(Default)]
 struct Decisions {
     next: usize,
     made: Vec<Decision>,
+    tables: Vec<qloop::ir::Table>,
+}
+
+/// A table's value in exact arithmetic: the linear interpolation of its f64 samples, the
+/// argument clamped to the grid's range (`ir::Table::eval` without the f64 rounding).
+fn table(t: &qloop::ir::Table, x: Q) -> Q {
+    use num_traits::ToPrimitive;
+    let x = clamp(x, (t.lo, t.hi));
+    let u = (x - of_f64(t.lo)) / of_f64(t.step);
+    let i = u
+        .floor()
+        .to_integer()
+        .to_usize()
+        .unwrap_or(0)
+        .min(t.segments() - 1);
+    let tt = u - Q::from_integer(BigInt::from(i));
+    let (s0, s1) = (of_f64(t.samples[i]), of_f64(t.samples[i + 1]));
+    s0.clone() + tt * (s1 - s0)
 }
 
 fn clamp(v: Q, (lo, hi): (f64, f64)) -> Q {
@@ -135,6 +156,10 @@ fn eval(e: &Expr, vars: &[Option<Q>], d: &mut Decisions) -> Q {
         Expr::Mul(a, b, _) => eval(a, vars, d) * eval(b, vars, d),
         Expr::Min(a, b) => eval(a, vars, d).min(eval(b, vars, d)),
         Expr::Max(a, b) => eval(a, vars, d).max(eval(b, vars, d)),
+        Expr::Table(t, a, _) => {
+            let x = eval(a, vars, d);
+            table(&d.tables[*t], x)
+        }
         Expr::Select(c, a, b) => {
             let c = cond(c, vars, d);
             let (a, b) = (eval(a, vars, d), eval(b, vars, d));

@@ -348,6 +348,11 @@ fn expr_bound(e: &Expr, env: &[ErrBound]) -> ErrBound {
         Expr::Min(a, b) | Expr::Max(a, b) | Expr::Select(_, a, b) => {
             expr_bound(a, env).max(expr_bound(b, env))
         }
+        // No seed spec has a table; this analysis does not bound one (c_tables.rs does).
+        Expr::Table(..) => ErrBound {
+            mag: f64::INFINITY,
+            err: f64::INFINITY,
+        },
     }
 }
 
@@ -370,6 +375,7 @@ fn expr_reads(e: &Expr, prog: &Program, out: &mut Vec<String>) {
             expr_reads(a, prog, out);
             expr_reads(b, prog, out);
         }
+        Expr::Table(_, a, _) => expr_reads(a, prog, out),
     }
 }
 

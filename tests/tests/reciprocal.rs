@@ -28,7 +28,7 @@ fn printed_bounds(p: &Plan) -> Vec<Q> {
             of_decimal(b.trim()).expect("a decimal")
         })
         .collect();
-    assert_eq!(bounds.len(), 2, "{report}");
+    assert_eq!(bounds.len(), 3, "{report}");
     bounds
 }
 
@@ -51,8 +51,8 @@ fn the_printed_bounds_hold_over_the_whole_input_range() {
     let fd = p.format(d_id);
     let (lo, hi) = p.raw_bounds(d_id).unwrap();
     let outs: Vec<_> = p.prog.ids_of(SigKind::Output).collect();
-    let (fr, fr2) = (p.format(outs[0]), p.format(outs[1]));
-    let mut worst = [Q::from_integer(0.into()), Q::from_integer(0.into())];
+    let (fr, fr2, fr3) = (p.format(outs[0]), p.format(outs[1]), p.format(outs[2]));
+    let mut worst = vec![Q::from_integer(0.into()); 3];
     // Every 4093rd raw value (a prime stride, so the low bits vary), and both ends.
     let raws = (lo..=hi).step_by(4093).chain([lo, hi, lo + 1, hi - 1]);
     let mut c = reciprocal::Controller::new();
@@ -61,12 +61,14 @@ fn the_printed_bounds_hold_over_the_whole_input_range() {
         let mut v = vec![0i128; p.prog.signals.len()];
         v[d_id.0] = raw;
         step_fixed(&p, &mut v).expect("in range");
-        assert_eq!([v[outs[0].0], v[outs[1].0]], [o[0] as i128, o[1] as i128]);
+        let got: Vec<i128> = outs.iter().map(|id| v[id.0]).collect();
+        assert_eq!(got, o.iter().map(|&x| x as i128).collect::<Vec<_>>());
         let d = of_raw(raw, fd.frac);
         let half = d.clone() / Q::from_integer(2.into());
         for (k, (dc, r)) in [
-            (clamp(d, 1.0, 4.0), of_raw(o[0].into(), fr.frac)),
+            (clamp(d.clone(), 1.0, 4.0), of_raw(o[0].into(), fr.frac)),
             (clamp(half, 0.25, 4.0), of_raw(o[1].into(), fr2.frac)),
+            (clamp(d, 1.0, 8.0), of_raw(o[2].into(), fr3.frac)),
         ]
         .into_iter()
         .enumerate()
@@ -82,8 +84,10 @@ fn the_printed_bounds_hold_over_the_whole_input_range() {
             }
         }
     }
-    // The bound is tight: the real-arithmetic term E^(2^K) is attained at an end of the
-    // range (sampled), and the rounding adds little, so the worst error seen is within 10%.
+    // The constant-seed bounds are tight: the real-arithmetic term E^(2^K) is attained at an
+    // end of the range (sampled), and the rounding adds little, so the worst error seen is
+    // within 10%. (The table-seeded one is dominated by rounding, whose worst case the
+    // sampled inputs need not meet.)
     for k in 0..2 {
         assert!(
             worst[k].clone() * Q::new(11.into(), 10.into()) >= bounds[k],

@@ -16,6 +16,7 @@ qloop_macros::controller!("fixtures/refute/csd_partial_sum.qloop");
 qloop_macros::controller!("fixtures/refute/property_sign_error.qloop");
 qloop_macros::controller!("fixtures/refute/recip_tracker_gain_too_large.qloop");
 qloop_macros::controller!("fixtures/refute/rls_unbounded_covariance.qloop");
+qloop_macros::controller!("fixtures/refute/table_claim_too_small.qloop");
 
 fn fixture(name: &str) -> (String, PathBuf) {
     let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -214,6 +215,21 @@ fn rls_unbounded_covariance_leaves_its_range_in_compiled_code() {
 }
 
 #[test]
+fn table_claim_too_small_is_exceeded_by_compiled_code() {
+    let (plan, o) = refuted("table_claim_too_small");
+    // The counterexample is the table's argument, in units of 2^-40.
+    let x = cex(&o, "x") as f64 * 2f64.powi(-40);
+    let q = plan.format(plan.prog.ids_of(qloop::ir::SigKind::Input).next().unwrap());
+    let raw = q.raw_nearest(x);
+    let out = table_claim_too_small::Controller::new().step_bits([raw as i64]);
+    let (d, r) = (q.value(raw), out[0] as f64 * 2f64.powi(-30));
+    assert!(
+        (r - 1.0 / d).abs() > 0.002,
+        "|{r} - 1/{d}| within the claim"
+    );
+}
+
+#[test]
 fn corpus_is_complete() {
     // Every fixture in the folder has a replay test above.
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fixtures/refute");
@@ -232,7 +248,8 @@ fn corpus_is_complete() {
             "missing_saturation",
             "property_sign_error",
             "recip_tracker_gain_too_large",
-            "rls_unbounded_covariance"
+            "rls_unbounded_covariance",
+            "table_claim_too_small"
         ]
     );
 }

@@ -155,6 +155,13 @@ impl Machine<'_> {
             Op::And(a, b) => i128::from(g(*a) != 0 && g(*b) != 0),
             Op::Or(a, b) => i128::from(g(*a) != 0 || g(*b) != 0),
             Op::Not(a) => i128::from(g(*a) == 0),
+            Op::Low(a, k) => g(*a) & ((1i128 << k) - 1),
+            Op::Lookup { table, delta, idx } => {
+                let t = &self.plan.tables[*table];
+                let v = if *delta { &t.deltas } else { &t.entries };
+                // The index is proved in 0..=N; out of it, the interval check reports it.
+                v[(g(*idx).max(0) as usize).min(v.len() - 1)]
+            }
         }
     }
 }
@@ -170,16 +177,20 @@ pub fn step_real(prog: &Program, vars: &mut [f64]) -> Vec<(usize, bool)> {
             }
         }
     }
-    let mut d = Decisions::default();
+    let mut d = Decisions {
+        next: 0,
+        taken: Vec::new(),
+        tables: &prog.tables,
+    };
     run_block(prog, &prog.body, vars, &mut d);
     d.taken
 }
 
-/// The decisions of a real step, numbered statically.
-#[derive(Default)]
-struct Decisions {
+/// The decisions of a real step, numbered statically (and the tables the step reads).
+struct Decisions<'a> {
     next: usize,
     taken: Vec<(usize, bool)>,
+    tables: &'a [crate::ir::Table],
 }
 
 fn run_block(prog: &Program, stmts: &[Stmt], vars: &mut [f64], d: &mut Decisions) {
@@ -218,6 +229,10 @@ fn eval(e: &Expr, vars: &[f64], d: &mut Decisions) -> f64 {
         Expr::Mul(a, b, _) => eval(a, vars, d) * eval(b, vars, d),
         Expr::Min(a, b) => eval(a, vars, d).min(eval(b, vars, d)),
         Expr::Max(a, b) => eval(a, vars, d).max(eval(b, vars, d)),
+        Expr::Table(t, a, _) => {
+            let x = eval(a, vars, d);
+            d.tables[*t].eval(x)
+        }
         Expr::Select(c, a, b) => {
             // Same evaluation order as the plan: condition, then both arms.
             let c = eval_cond(c, vars, d);

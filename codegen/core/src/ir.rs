@@ -40,6 +40,95 @@ pub struct Program {
     pub recips: Vec<Recip>,
     /// The reciprocal trackers (`recip_track`) of the step.
     pub tracks: Vec<Track>,
+    /// The tables (`table NAME(x: [A, B]) = EXPR, step H;`), in declaration order.
+    pub tables: Vec<Table>,
+}
+
+/// A table: a function of one value given by a compile-time expression, sampled at
+/// `lo, lo + step, .., hi` and interpolated linearly between the samples.
+///
+/// Its value in real arithmetic (what the interpreter, the f64 reference and the exact
+/// semantics of the tests compute) is that interpolant of the f64 samples, with the argument
+/// clamped to `[lo, hi]`; [`Table::interp_err`] bounds its distance from the expression
+/// itself, and `qloop check` adds that bound to the error column of every value it feeds.
+#[derive(Clone, Debug)]
+pub struct Table {
+    /// Name.
+    pub name: String,
+    /// The grid's first point `A`.
+    pub lo: f64,
+    /// The grid's last point `B`.
+    pub hi: f64,
+    /// The grid step `H`, a power of two.
+    pub step: f64,
+    /// `f(A + i·H)` for `i = 0..=N`, each the f64 value of the expression.
+    pub samples: Vec<f64>,
+    /// The argument's unit.
+    pub in_unit: Option<String>,
+    /// The result's unit (`None` if dimensionless).
+    pub unit: Option<String>,
+    /// A proved bound on `|L(x) − f(x)|` over `[lo, hi]`: `H²/8·max |f''|` per segment (the
+    /// remainder of linear interpolation, with `f''` bounded by interval arithmetic), plus the
+    /// f64 rounding of the samples.
+    pub interp_err: f64,
+    /// `, error E`: the interpolation error the spec claims, a proof obligation.
+    pub claim: Option<f64>,
+    /// The largest `|L(x) − f(x)|` found at 15 points inside each segment, and where: a
+    /// lower bound on the true interpolation error (a claim below it is false).
+    pub witness: (f64, f64),
+    /// Doc lines.
+    pub docs: Vec<String>,
+    /// Declaration site.
+    pub span: Span,
+}
+
+/// What is known of a table's claimed interpolation error.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TableClaim {
+    /// The curvature bound is at most the claim.
+    Proved,
+    /// `|L(x) − f(x)|` exceeds the claim at `x` (by more than the f64 evaluation could err).
+    Refuted {
+        /// Where.
+        x: f64,
+        /// `|L(x) − f(x)|` there.
+        err: f64,
+    },
+    /// Neither: the bound is above the claim, but no sampled point exceeds it.
+    Unknown,
+}
+
+impl Table {
+    /// The verdict on the claimed interpolation error, if there is a claim.
+    pub fn claim_verdict(&self) -> Option<TableClaim> {
+        let c = self.claim?;
+        let (x, err) = self.witness;
+        let smax = self.samples.iter().fold(0f64, |m, s| m.max(s.abs()));
+        Some(if self.interp_err <= c {
+            TableClaim::Proved
+        } else if err > c + smax * 2f64.powi(-40) {
+            TableClaim::Refuted { x, err }
+        } else {
+            TableClaim::Unknown
+        })
+    }
+
+    /// The number of segments `N`.
+    pub fn segments(&self) -> usize {
+        self.samples.len() - 1
+    }
+
+    /// The table's value in real arithmetic, evaluated in f64 with exactly the operations of
+    /// the f64 reference module: `x` clamped, `u = (x − lo)·(1/step)`, `i = min(u as usize, N − 1)` (the floor),
+    /// `s_i + (u − i)·(s_{i+1} − s_i)`.
+    pub fn eval(&self, x: f64) -> f64 {
+        let x = x.max(self.lo).min(self.hi);
+        let u = (x - self.lo) * (1.0 / self.step);
+        // `u ≥ 0`, so the truncating cast is the floor (and needs no `std` in the reference).
+        let i = (u as usize).min(self.segments() - 1);
+        let t = u - i as f64;
+        self.samples[i] + t * (self.samples[i + 1] - self.samples[i])
+    }
 }
 
 /// A reciprocal tracker `recip_track(r, x, G);` (see `check::track`): the state `r` follows
@@ -79,26 +168,60 @@ pub struct Recip {
     pub hi: f64,
     /// Newton steps.
     pub steps: u32,
-    /// The seed: 2/(lo + hi) to 6 significant bits (a short dyadic, exact in any format).
+    /// The constant seed: 2/(lo + hi) to 6 significant bits (a short dyadic, exact in any
+    /// format); NaN where a table seeds the iteration.
     pub seed: f64,
+    /// The table that seeds it (an index into [`Program::tables`]), and the `let` holding
+    /// its value at `d`.
+    pub seed_table: Option<(usize, SigId)>,
     /// The call's site.
     pub span: Span,
 }
 
 impl Recip {
-    /// An upper bound on `|1 − d·s|` over `d ∈ [lo, hi]` for the seed `s` (attained at an
-    /// end), nudged up by a relative 1e-12, far above its f64 rounding.
-    pub fn seed_error(&self) -> f64 {
-        let s = self.seed;
-        (1.0 - self.lo * s).abs().max((1.0 - self.hi * s).abs()) * (1.0 + 1e-12)
+    /// An upper bound on `|1 − d·s|` over `d ∈ [lo, hi]` for the seed `s` in real arithmetic
+    /// (attained at an end for a constant; for a table seed, the largest over each segment's
+    /// quadratic `1 − d·L(d)`), nudged up by a relative 1e-12, far above its f64 rounding.
+    pub fn seed_error(&self, tables: &[Table]) -> f64 {
+        let e = match self.seed_table {
+            None => {
+                let s = self.seed;
+                (1.0 - self.lo * s).abs().max((1.0 - self.hi * s).abs())
+            }
+            Some((t, _)) => table_recip_error(&tables[t], self.lo, self.hi),
+        };
+        e * (1.0 + 1e-12)
     }
 
     /// An upper bound on `1 − d·r` over `d ∈ [lo, hi]` in real arithmetic: `1 − d·r_{k+1}
     /// = (1 − d·r_k)²`, so it is the seed's error to the power `2^K` (and `0 ≤ 1 − d·r`
     /// after the first step).
-    pub fn real_error(&self) -> f64 {
-        self.seed_error().powi(1 << self.steps) * (1.0 + 1e-12)
+    pub fn real_error(&self, tables: &[Table]) -> f64 {
+        self.seed_error(tables).powi(1 << self.steps) * (1.0 + 1e-12)
     }
+}
+
+/// `max |1 − d·L(d)|` over `d ∈ [lo, hi]` for the interpolant `L` of table `t`: on each
+/// segment `1 − d·L(d)` is a quadratic in `d`, so its extremes are at the segment's ends (cut
+/// to `[lo, hi]`) or at its vertex. (Outside the table's range `L` is its end value.)
+fn table_recip_error(t: &Table, lo: f64, hi: f64) -> f64 {
+    let mut pts = vec![lo, hi];
+    for i in 0..t.segments() {
+        let (a, b) = (t.lo + i as f64 * t.step, t.lo + (i + 1) as f64 * t.step);
+        pts.extend([a, b]);
+        // L(d) = α + β·d on [a, b]; 1 − α·d − β·d² has its vertex at −α/(2β).
+        let beta = (t.samples[i + 1] - t.samples[i]) / t.step;
+        let alpha = t.samples[i] - beta * a;
+        if beta != 0.0 {
+            pts.push(-alpha / (2.0 * beta));
+        }
+    }
+    pts.into_iter()
+        .filter(|d| (lo..=hi).contains(d))
+        .map(|d| (1.0 - d * t.eval(d)).abs())
+        .fold(0f64, f64::max)
+        // The f64 evaluation: a few roundings of values near 1.
+        + 4e-16
 }
 
 impl Program {
@@ -291,6 +414,8 @@ pub enum Expr {
     Max(Box<Expr>, Box<Expr>),
     /// `if c { a } else { b }` as an expression.
     Select(Box<Cond>, Box<Expr>, Box<Expr>),
+    /// `NAME(x)`: table `table` (an index into [`Program::tables`]) at `x`.
+    Table(usize, Box<Expr>, Span),
 }
 
 /// Comparisons are numbered statically, in pre-order over the body: statements in order; an
@@ -323,6 +448,7 @@ impl Expr {
             | Expr::Min(a, _)
             | Expr::Max(a, _) => a.span(),
             Expr::Select(c, ..) => c.span(),
+            Expr::Table(_, _, span) => *span,
         }
     }
 
@@ -337,6 +463,7 @@ impl Expr {
             | Expr::Min(a, b)
             | Expr::Max(a, b) => a.comparisons() + b.comparisons(),
             Expr::Select(c, a, b) => c.comparisons() + a.comparisons() + b.comparisons(),
+            Expr::Table(_, a, _) => a.comparisons(),
         }
     }
 }

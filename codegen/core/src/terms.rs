@@ -348,8 +348,31 @@ fn def(plan: &Plan, id: ValId, env: &BTreeMap<SigId, Rc<T>>, t: &mut Terms) {
         Op::Max(a, b) => ite(Rc::new(B::Cmp(CmpOp::Lt, g(a), g(b))), g(b), g(a)),
         Op::Select(c, a, b) => ite(gb(c), g(a), g(b)),
         Op::Cmp(..) | Op::And(..) | Op::Or(..) | Op::Not(..) => zero(),
+        // a mod 2^k for a ≥ 0: a − ((a >> k) << k).
+        Op::Low(a, k) => sub(g(a), shl(Rc::new(T::Shr(g(a), *k)), *k)),
+        Op::Lookup { table, delta, idx } => {
+            let lt = &plan.tables[*table];
+            let arr = if *delta { &lt.deltas } else { &lt.entries };
+            let iv = plan.val(*idx);
+            let lo = iv.lo.max(0) as usize;
+            let hi = (iv.hi.max(0) as usize).min(arr.len() - 1);
+            lookup_tree(&g(idx), arr, lo, hi)
+        }
     };
     t.vals[id.0] = Some(e);
+}
+
+/// `arr[i]` for `i` in `lo..=hi` as a balanced tree of `ite(i < mid, .., ..)`.
+fn lookup_tree(i: &Rc<T>, arr: &[i128], lo: usize, hi: usize) -> Rc<T> {
+    if lo >= hi {
+        return Rc::new(T::Const(arr[lo.min(arr.len() - 1)]));
+    }
+    let mid = (lo + hi).div_ceil(2);
+    ite(
+        Rc::new(B::Cmp(CmpOp::Lt, i.clone(), Rc::new(T::Const(mid as i128)))),
+        lookup_tree(i, arr, lo, mid - 1),
+        lookup_tree(i, arr, mid, hi),
+    )
 }
 
 /// A property value: exact term at a binary point.

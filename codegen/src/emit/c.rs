@@ -322,6 +322,7 @@ fn body(plan: &Plan, include: bool) -> String {
          #endif\n\
          #endif\n\n"
     );
+    o.push_str(&table_arrays(plan));
     let _ = writeln!(o, "void {n}_init({n}_state *self)\n{{");
     for id in &states {
         let q = plan.format(*id);
@@ -571,6 +572,63 @@ fn byte_split(plan: &Plan, id: ValId, mid: &str) -> Option<(String, String)> {
     })
 }
 
+/// The C name of table array `i` (samples, or differences).
+fn table_array(plan: &Plan, i: usize, delta: bool) -> String {
+    let what = if delta { "delta" } else { "table" };
+    format!("{}_{what}_{i}", plan.prog.name)
+}
+
+/// The table arrays of the step, `static const`, in program memory on AVR (`PROGMEM`, read
+/// with `pgm_read_*`: a table in RAM would cost the ATmega328P's scarce 2 KiB), padded to a
+/// power of two like the Rust output's.
+fn table_arrays(plan: &Plan) -> String {
+    if plan.tables.is_empty() {
+        return String::new();
+    }
+    let mut o = String::from(
+        "/* Table arrays: in flash on AVR (read with pgm_read_*), ordinary constants elsewhere. */\n\
+         #if defined(__AVR__) && !defined(__FRAMAC__)\n\
+         #include <avr/pgmspace.h>\n\
+         #define QLOOP_PROGMEM PROGMEM\n\
+         #define QLOOP_READ_8(a, i) ((int8_t)pgm_read_byte(&(a)[i]))\n\
+         #define QLOOP_READ_16(a, i) ((int16_t)pgm_read_word(&(a)[i]))\n\
+         #define QLOOP_READ_32(a, i) ((int32_t)pgm_read_dword(&(a)[i]))\n\
+         #define QLOOP_READ_64(a, i) ((int64_t)((uint64_t)pgm_read_dword(&(a)[i]) | \\\n\
+         \x20   ((uint64_t)pgm_read_dword((const char *)&(a)[i] + 4) << 32)))\n\
+         #else\n\
+         #define QLOOP_PROGMEM\n\
+         #define QLOOP_READ_8(a, i) ((a)[i])\n\
+         #define QLOOP_READ_16(a, i) ((a)[i])\n\
+         #define QLOOP_READ_32(a, i) ((a)[i])\n\
+         #define QLOOP_READ_64(a, i) ((a)[i])\n\
+         #endif\n\n",
+    );
+    for (i, t) in plan.tables.iter().enumerate() {
+        let len = super::table_len(t);
+        let _ = writeln!(o, "/*{} */", super::table_doc(plan, i));
+        for delta in [false, true] {
+            let (ty, src) = if delta {
+                (t.delta_ty, &t.deltas)
+            } else {
+                (t.format.ty, &t.entries)
+            };
+            let vals: Vec<String> = super::padded(src, len)
+                .into_iter()
+                .map(|v| c_lit(v, ty))
+                .collect();
+            let _ = writeln!(
+                o,
+                "static const {} {}[{len}] QLOOP_PROGMEM = {{\n    {}\n}};",
+                c_ty(ty),
+                table_array(plan, i, delta),
+                vals.join(", ")
+            );
+        }
+        o.push('\n');
+    }
+    o
+}
+
 /// The C name of a value: the user's `let` name, or `_N`.
 fn name(plan: &Plan, id: ValId) -> String {
     match &plan.val(id).name {
@@ -586,6 +644,19 @@ fn expr(plan: &Plan, id: ValId) -> String {
     let n = |x: &ValId| name(plan, *x);
     match &v.op {
         Op::Input(s) => format!("in->{}", field(&plan.prog, *s)),
+        Op::Low(a, k) => format!("({t})({} & {})", n(a), c_lit((1i128 << k) - 1, v.ty)),
+        Op::Lookup { table, delta, idx } => {
+            let bits = if *delta {
+                plan.tables[*table].delta_ty.bits
+            } else {
+                plan.tables[*table].format.ty.bits
+            };
+            format!(
+                "({t})QLOOP_READ_{bits}({}, {})",
+                table_array(plan, *table, *delta),
+                n(idx)
+            )
+        }
         Op::Load(s) => ident(&plan.prog.sig(*s).name),
         Op::Const(c) => c_lit(*c, v.ty),
         Op::Cast(a) => format!("({t}){}", n(a)),

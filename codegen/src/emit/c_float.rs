@@ -245,6 +245,7 @@ fn body(prog: &Program) -> String {
          static inline float qloop_clampf(float x, float lo, float hi)\n\
          {{\n    return qloop_minf(qloop_maxf(x, lo), hi);\n}}\n\n"
     );
+    o.push_str(&table_fns(prog));
 
     let _ = writeln!(o, "void {n}_f_init({n}_f_state *self)\n{{");
     for id in &states {
@@ -260,6 +261,9 @@ fn body(prog: &Program) -> String {
         o,
         "void {n}_f_step({n}_f_state *self, const {n}_f_inputs *in, {n}_f_outputs *out)\n{{"
     );
+    if states.is_empty() {
+        let _ = writeln!(o, "    (void)self;");
+    }
     if inputs.is_empty() {
         let _ = writeln!(o, "    (void)in;");
     }
@@ -342,6 +346,7 @@ fn reads_expr(e: &Expr, read: &mut [bool]) {
             reads_expr(a, read);
             reads_expr(b, read);
         }
+        Expr::Table(_, a, _) => reads_expr(a, read),
         Expr::Select(c, a, b) => {
             reads_cond(c, read);
             reads_expr(a, read);
@@ -410,7 +415,40 @@ fn expr(prog: &Program, e: &Expr) -> String {
         Expr::Max(a, b) => format!("qloop_maxf({}, {})", x(a), x(b)),
         // Pure operands: evaluating one arm is the same as evaluating both and selecting.
         Expr::Select(c, a, b) => format!("(({}) ? {} : {})", cond(prog, c), x(a), x(b)),
+        Expr::Table(t, a, _) => format!("{}_table_{t}({})", prog.name, x(a)),
     }
+}
+
+/// Each table as its samples (float) and the interpolation of `ir::Table::eval`.
+fn table_fns(prog: &Program) -> String {
+    let mut o = String::new();
+    for (i, t) in prog.tables.iter().enumerate() {
+        let n = &prog.name;
+        let vals: Vec<String> = t.samples.iter().map(|v| lit(*v)).collect();
+        let _ = write!(
+            o,
+            "/* Table `{}`: linear interpolation of its samples over [{}, {}], step {}. */\n\
+             static const float {n}_samples_{i}[{}] = {{ {} }};\n\
+             static inline float {n}_table_{i}(float x)\n{{\n\
+             \x20   x = qloop_minf(qloop_maxf(x, {lo}), {hi});\n\
+             \x20   float u = (x - {lo}) * {inv};\n\
+             \x20   unsigned i = (unsigned)u;\n\
+             \x20   if (i > {last}u) i = {last}u;\n\
+             \x20   float t = u - (float)i;\n\
+             \x20   return {n}_samples_{i}[i] + t * ({n}_samples_{i}[i + 1u] - {n}_samples_{i}[i]);\n}}\n\n",
+            safe(&t.name),
+            crate::text::g(t.lo),
+            crate::text::g(t.hi),
+            crate::text::g(t.step),
+            t.samples.len(),
+            vals.join(", "),
+            lo = lit(t.lo),
+            hi = lit(t.hi),
+            inv = lit(1.0 / t.step),
+            last = t.segments() - 1,
+        );
+    }
+    o
 }
 
 fn cond(prog: &Program, c: &Cond) -> String {

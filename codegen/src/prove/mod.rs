@@ -206,6 +206,11 @@ pub fn prove_filtered(
         }
     }
     let mut outcomes = merge_portfolio(outcomes);
+    outcomes.extend(
+        table_claims(plan)
+            .into_iter()
+            .filter(|o| only.is_none_or(|t| o.ob.label().contains(t))),
+    );
     let all_witness_runs: Vec<Run> = witness_runs.iter().flatten().cloned().collect();
     for (k, runs) in witnessed.into_iter().zip(witness_runs) {
         if !runs.iter().any(|r| r.answer == Answer::Unsat) {
@@ -232,6 +237,78 @@ parameter value meets the `assume`s, so the property says nothing; check its ass
         jobs: cfg.jobs.max(1),
         witness_runs: all_witness_runs,
     }
+}
+
+/// The claimed interpolation errors of the tables (`table .., error E;`), decided by qloop:
+/// proved where the curvature bound (second derivative in interval arithmetic,
+/// [`crate::ir::Table::interp_err`]) is at most the claim; refuted, with the table's argument
+/// as the counterexample (variable `x`, its value in units of 2^-40), where the interpolant
+/// misses the expression by more than the claim at a sampled point; else unknown.
+fn table_claims(plan: &Plan) -> Vec<Outcome> {
+    use crate::ir::TableClaim;
+    plan.prog
+        .tables
+        .iter()
+        .enumerate()
+        .filter_map(|(i, t)| {
+            let v = t.claim_verdict()?;
+            let claim = t.claim.unwrap_or(0.0);
+            let ob = Obligation {
+                name: format!(
+                    "table {} claim: |L(x) - f(x)| <= {} over [{}, {}]",
+                    t.name,
+                    crate::text::g(claim),
+                    crate::text::g(t.lo),
+                    crate::text::g(t.hi)
+                ),
+                kind: Kind::Table,
+                query: Query {
+                    script: String::new(),
+                    want: Vec::new(),
+                },
+                goal: Goal::Table(i),
+                line: t.span.start().line,
+                encoding: None,
+            };
+            let (verdict, cex, note) = match v {
+                TableClaim::Proved => (
+                    Verdict::Proved,
+                    None,
+                    format!(
+                        "by qloop: the curvature bound {} is at most the claim",
+                        crate::text::bound(t.interp_err)
+                    ),
+                ),
+                TableClaim::Refuted { x, err } => (
+                    Verdict::Refuted,
+                    Some(replay::Cex {
+                        values: vec![("x".into(), (x * 2f64.powi(40)).round() as i128, 64)],
+                    }),
+                    format!(
+                        "by qloop: at x = {}, |L(x) - f(x)| = {} (f64) exceeds the claim",
+                        crate::text::g(x),
+                        crate::text::bound(err)
+                    ),
+                ),
+                TableClaim::Unknown => (
+                    Verdict::Unknown,
+                    None,
+                    format!(
+                        "by qloop: the curvature bound {} is above the claim and no sampled point exceeds it",
+                        crate::text::bound(t.interp_err)
+                    ),
+                ),
+            };
+            Some(Outcome {
+                ob,
+                verdict,
+                runs: Vec::new(),
+                attempts: Vec::new(),
+                cex,
+                note: Some(note),
+            })
+        })
+        .collect()
 }
 
 /// The start of the note of an obligation on which two solvers disagree.

@@ -257,6 +257,8 @@ pub fn replay(plan: &Plan, ob: &Obligation, cex: &Cex, initial: bool) -> Replay 
     }
     match &ob.goal {
         Goal::Val { .. } => Replay::NotConfirmed("every value stays in its interval".into()),
+        // Decided without a solver (`prove::table_claims`): nothing of the step to replay.
+        Goal::Table(_) => Replay::NotConfirmed("a table claim has no solver model".into()),
         Goal::StateBound(id) => {
             if bounds_ok(&post, *id) {
                 Replay::NotConfirmed("the state stays in its range".into())

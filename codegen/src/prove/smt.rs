@@ -197,7 +197,41 @@ fn op_term(plan: &Plan, id: ValId, env: &BTreeMap<SigId, String>) -> String {
         Op::And(a, b) => format!("(and {} {})", n(a), n(b)),
         Op::Or(a, b) => format!("(or {} {})", n(a), n(b)),
         Op::Not(a) => format!("(not {})", n(a)),
+        Op::Low(a, k) => format!("(bvand {} {})", n(a), lit((1i128 << k) - 1, w)),
+        Op::Lookup { table, delta, idx } => {
+            let iv = plan.val(*idx);
+            lookup_term(plan, *table, *delta, &n(idx), iv.ty.bits, (iv.lo, iv.hi), w)
+        }
     }
+}
+
+/// Entry `idx` of a table array as a balanced `ite` tree over the index's interval `lo..=hi`
+/// (`idx` a term of `iw` bits), at width `w`.
+pub fn lookup_term(
+    plan: &Plan,
+    table: usize,
+    delta: bool,
+    idx: &str,
+    iw: u32,
+    (lo, hi): (i128, i128),
+    w: u32,
+) -> String {
+    let t = &plan.tables[table];
+    let arr = if delta { &t.deltas } else { &t.entries };
+    let last = arr.len() as i128 - 1;
+    fn tree(arr: &[i128], idx: &str, iw: u32, lo: i128, hi: i128, w: u32) -> String {
+        if lo >= hi {
+            return lit(arr[lo as usize], w);
+        }
+        let mid = (lo + hi + 1) / 2;
+        format!(
+            "(ite (bvslt {idx} {}) {} {})",
+            lit(mid, iw),
+            tree(arr, idx, iw, lo, mid - 1, w),
+            tree(arr, idx, iw, mid, hi, w)
+        )
+    }
+    tree(arr, idx, iw, lo.clamp(0, last), hi.clamp(0, last), w)
 }
 
 /// The exact (non-wrapping) result of value `id`'s operation, from operand terms given by
@@ -248,6 +282,23 @@ pub fn exact_term(
         Op::Shr(a, k) => {
             let w = wid(a);
             (format!("(bvashr {} {})", sx(a, w), lit(*k as i128, w)), w)
+        }
+        Op::Low(a, k) => {
+            let w = wid(a);
+            (
+                format!("(bvand {} {})", sx(a, w), lit((1i128 << k) - 1, w)),
+                w,
+            )
+        }
+        Op::Lookup { table, delta, idx } => {
+            let (lo, hi) = plan.tables[*table].range(*delta);
+            let w = signed_bits(lo, hi);
+            let (it, iw) = operand(*idx);
+            let iv = plan.val(*idx);
+            (
+                lookup_term(plan, *table, *delta, &it, iw, (iv.lo, iv.hi), w),
+                w,
+            )
         }
         Op::Min(a, b) | Op::Max(a, b) => {
             let w = wid(a).max(wid(b));

@@ -9,7 +9,9 @@ use crate::lang::parse::doc_lines;
 use crate::qformat::{IntTy, QFormat, Rounding, WIDTHS};
 
 mod const_eval;
+pub(crate) mod curvature;
 mod props;
+mod table;
 mod track;
 mod units;
 use proc_macro2::Span;
@@ -77,6 +79,10 @@ struct Checker {
     word: u32,
     /// The `recip_track`s of the step, for their properties.
     pending_tracks: Vec<track::PendingTrack>,
+    /// The tables, in declaration order.
+    tables: Vec<Table>,
+    /// Each table's argument and result units.
+    table_units: Vec<(Ty, Ty)>,
     /// The vector element each `let` made by [`crate::lang::expand`] stands for.
     let_elems: HashMap<String, Elem>,
     /// How many assignments each signal has had so far (for [`BoolLet`]).
@@ -167,6 +173,7 @@ impl Checker {
                     word = Some((b, bits.span()));
                 }
                 Item::Constant(c) => self.constant(c)?,
+                Item::Table(t) => self.table(t)?,
                 Item::Signal(s) => self.signal(s)?,
                 Item::Step(block) => {
                     if body.is_some() {
@@ -208,6 +215,7 @@ impl Checker {
             properties,
             recips,
             tracks,
+            tables: self.tables,
             name,
             docs: ast.docs.clone(),
             period,
@@ -330,7 +338,28 @@ impl Checker {
                 .find(|c| c.ends_with("_seed"))
                 .and_then(|c| self.consts.get(c))
                 .map_or(f64::NAN, |c| c.0);
+            let seed_table = match &r.seed_table {
+                None => None,
+                Some(t) => {
+                    let ti = self.table_index(t).ok_or_else(|| {
+                        Diag::new(r.span, format!("`{t}` is not a table"))
+                            .help("the fourth argument of `newton_recip` names a table of 1/x")
+                    })?;
+                    let tab = &self.tables[ti];
+                    if tab.lo > lo || tab.hi < hi {
+                        return Err(Diag::new(
+                            r.span,
+                            format!(
+                                "the seed table `{t}` covers [{}, {}], not the whole range [{lo}, {hi}]",
+                                tab.lo, tab.hi
+                            ),
+                        ));
+                    }
+                    Some((ti, id(&r.lets[1])?))
+                }
+            };
             out.push(Recip {
+                seed_table,
                 seed,
                 d: id(&r.lets[0])?,
                 r: id(r.lets.last().map_or("", |s| s.as_str()))?,
@@ -951,6 +980,9 @@ impl Checker {
 
     fn builtin(&self, f: &syn::Ident, args: &[&SExpr], span: Span) -> Result<Expr> {
         let n = f.to_string();
+        if let Some(t) = self.table_index(&n) {
+            return self.table_call(t, args, span);
+        }
         let want = match n.as_str() {
             "abs" => {
                 if args.len() != 1 {
@@ -1108,6 +1140,7 @@ fn expr_reads(e: &Expr, out: &mut BTreeSet<SigId>) {
             expr_reads(a, out);
             expr_reads(b, out);
         }
+        Expr::Table(_, a, _) => expr_reads(a, out),
     }
 }
 

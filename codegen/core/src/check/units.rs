@@ -294,6 +294,18 @@ impl Checker {
             .iter()
             .map(|a| self.unit_of(a, params))
             .collect::<Result<_>>()?;
+        if let Some(t) = self.table_index(f) {
+            let (tin, tout) = self.table_units[t].clone();
+            if let [x] = tys.as_slice() {
+                same(
+                    tin,
+                    x.clone(),
+                    args[0].span(),
+                    &format!("the argument of table `{f}`"),
+                )?;
+            }
+            return Ok(tout);
+        }
         match (f, tys.as_slice()) {
             ("min" | "max", [a, b]) => same(a.clone(), b.clone(), span, &format!("`{f}`")),
             ("clamp", [x, lo, hi]) => {

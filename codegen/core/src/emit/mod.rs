@@ -291,3 +291,32 @@ pub fn field_path(prog: &Program, id: SigId) -> TokenStream {
         }
     }
 }
+
+/// The length of a table's arrays: `N + 1` entries padded to a power of two, so that a
+/// masked index needs no bounds check.
+pub fn table_len(t: &crate::lower::table::LTable) -> usize {
+    t.entries.len().next_power_of_two()
+}
+
+/// `v` padded with its last entry to `len`.
+pub fn padded(v: &[i128], len: usize) -> Vec<i128> {
+    let mut out = v.to_vec();
+    let last = out.last().copied().unwrap_or(0);
+    out.resize(len, last);
+    out
+}
+
+/// The doc line of table array `i` of `plan`.
+pub fn table_doc(plan: &Plan, i: usize) -> String {
+    let lt = &plan.tables[i];
+    let t = &plan.prog.tables[lt.table];
+    format!(
+        " Table `{}` over [{}, {}], step {}: its {} samples in {} (entries past them repeat the last).",
+        t.name,
+        crate::text::g(t.lo),
+        crate::text::g(t.hi),
+        crate::text::g(t.step),
+        t.samples.len(),
+        lt.format
+    )
+}

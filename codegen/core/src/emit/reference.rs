@@ -101,6 +101,7 @@ pub fn module(plan: &Plan) -> TokenStream {
         })
         .collect();
     let tables = super::signal_tables(plan);
+    let table_fns = table_fns(prog);
     let [ni, no, ns] = [&inputs, &outputs, &states].map(|v| Literal::usize_unsuffixed(v.len()));
     let in_vals: Vec<TokenStream> = mi
         .iter()
@@ -129,6 +130,8 @@ pub fn module(plan: &Plan) -> TokenStream {
         #[allow(#allows, unused_variables)]
         pub mod #modname {
             #tables
+
+            #table_fns
 
             /// Inputs of one step (clamped to their declared ranges on entry).
             #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -203,6 +206,38 @@ fn sat(prog: &Program, id: crate::ir::SigId, e: TokenStream) -> TokenStream {
         }
         None => e,
     }
+}
+
+/// Each table as its f64 samples and the interpolation of [`crate::ir::Table::eval`], with the
+/// same operations in the same order (so the reference equals the interpreter exactly).
+fn table_fns(prog: &Program) -> TokenStream {
+    let items = prog.tables.iter().enumerate().map(|(i, t)| {
+        let arr = format_ident!("QLOOP_SAMPLES_{}", i);
+        let fname = format_ident!("qloop_table_{}", i);
+        let len = Literal::usize_unsuffixed(t.samples.len());
+        let last = Literal::usize_unsuffixed(t.segments() - 1);
+        let vals = t.samples.iter().map(|v| f(*v));
+        let (lo, hi, inv) = (f(t.lo), f(t.hi), f(1.0 / t.step));
+        let doc = format!(
+            " Table `{}`: linear interpolation of its samples over [{}, {}], step {}.",
+            t.name,
+            crate::text::g(t.lo),
+            crate::text::g(t.hi),
+            crate::text::g(t.step)
+        );
+        quote! {
+            const #arr: [f64; #len] = [#(#vals),*];
+            #[doc = #doc]
+            fn #fname(x: f64) -> f64 {
+                let x = x.max(#lo).min(#hi);
+                let u = (x - #lo) * #inv;
+                let i = ::core::cmp::min(u as usize, #last);
+                let t = u - i as f64;
+                #arr[i] + t * (#arr[i + 1] - #arr[i])
+            }
+        }
+    });
+    quote! { #(#items)* }
 }
 
 /// Operator nesting above which a subexpression is hoisted into a `let` of its own. Keeps
@@ -283,6 +318,11 @@ impl Exprs<'_> {
             Expr::Var(id, _) => {
                 let n = format_ident!("{}", self.prog.sig(*id).name);
                 (quote! { #n }, 1)
+            }
+            Expr::Table(t, a, _) => {
+                let (a, d) = self.expr(a);
+                let fname = format_ident!("qloop_table_{}", t);
+                (quote! { #fname(#a) }, d + 1)
             }
             Expr::Neg(a) => {
                 let (a, d) = self.expr(a);

@@ -35,11 +35,14 @@ pub fn module(plan: &Plan) -> TokenStream {
         quote! {}
     };
     let muls = plan.var_products().into_iter().map(|id| mul_fn(plan, id));
+    let table_items = table_arrays(plan);
     quote! {
         #[doc = #doc]
         #[allow(#allows)]
         pub mod #modname {
             #keep
+
+            #table_items
 
             #(#muls)*
 
@@ -463,7 +466,60 @@ fn op_expr(plan: &Plan, id: ValId) -> TokenStream {
             let a = n(a);
             quote! { !#a }
         }
+        Op::Low(a, k) => {
+            let (a, m) = (n(a), lit((1i128 << k) - 1, v.ty));
+            quote! { #a & #m }
+        }
+        Op::Lookup { table, delta, idx } => {
+            // The index is proved in 0..=N; the mask (a no-op there) lets the compiler drop
+            // the bounds check, so no panicking path remains.
+            let (arr, mask) = table_name(plan, *table, *delta);
+            let i = n(idx);
+            quote! { #arr[(#i as usize) & #mask] }
+        }
     }
+}
+
+/// The name of table array `table` (samples or differences) and its index mask.
+fn table_name(plan: &Plan, table: usize, delta: bool) -> (Ident, Literal) {
+    let len = super::table_len(&plan.tables[table]);
+    let name = if delta {
+        format_ident!("QLOOP_DELTA_{}", table)
+    } else {
+        format_ident!("QLOOP_TABLE_{}", table)
+    };
+    (name, Literal::usize_unsuffixed(len - 1))
+}
+
+/// The table arrays of the step: `const` arrays, padded to a power of two.
+fn table_arrays(plan: &Plan) -> TokenStream {
+    let items = plan.tables.iter().enumerate().map(|(i, t)| {
+        let len = super::table_len(t);
+        let doc = super::table_doc(plan, i);
+        let mut out = TokenStream::new();
+        for delta in [false, true] {
+            let (name, _) = table_name(plan, i, delta);
+            let (ty, src) = if delta {
+                (t.delta_ty, &t.deltas)
+            } else {
+                (t.format.ty, &t.entries)
+            };
+            let vals = super::padded(src, len).into_iter().map(|v| lit(v, ty));
+            let tyi = int_ty(ty);
+            let l = Literal::usize_unsuffixed(len);
+            let d = if delta {
+                format!(" Differences of consecutive entries of [`QLOOP_TABLE_{i}`] (0 from the last on).")
+            } else {
+                doc.clone()
+            };
+            out.extend(quote! {
+                #[doc = #d]
+                const #name: [#tyi; #l] = [#(#vals),*];
+            });
+        }
+        out
+    });
+    quote! { #(#items)* }
 }
 
 /// The emitted name of a value: the user's `let` name, or `_N`.

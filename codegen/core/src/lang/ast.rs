@@ -40,6 +40,9 @@ pub enum Item {
     Signal(Box<SignalDecl>),
     /// `param` or `const` declaration.
     Constant(ConstDecl),
+    /// `table NAME(x: [A, B] "unit") = EXPR, step H;` — a function of one value, sampled
+    /// on a grid and interpolated linearly.
+    Table(Box<TableDecl>),
     /// `step { ... }` — the update body.
     Step(Block),
     /// `prove { ... }` — invariants and step properties to prove.
@@ -119,6 +122,30 @@ pub struct ConstDecl {
     pub value: Expr,
     /// Physical unit.
     pub unit: Option<LitStr>,
+}
+
+/// `table NAME(VAR: [A, B] "unit") = EXPR, step H, error E;`: `EXPR` (a compile-time
+/// expression of `VAR`) sampled at `A, A + H, .., B` and interpolated linearly between the
+/// samples; `H` a power of two; the optional `error E` claims a bound on the interpolation
+/// error.
+#[derive(Clone)]
+pub struct TableDecl {
+    /// Doc lines and attributes.
+    pub attrs: Vec<Attribute>,
+    /// The table's name (called as `NAME(x)` in `step`).
+    pub name: Ident,
+    /// The variable of `EXPR`.
+    pub var: Ident,
+    /// `[A, B]`.
+    pub range: RangeAst,
+    /// The variable's unit.
+    pub unit: Option<LitStr>,
+    /// The generator.
+    pub value: Expr,
+    /// The grid step `H`.
+    pub step: Expr,
+    /// The claimed interpolation error, if any.
+    pub error: Option<Expr>,
 }
 
 /// One item of a `prove { .. }` block.

@@ -24,7 +24,8 @@
 //!   Newton steps `r ← r·(2 − d·r)` from the seed `2/(LO + HI)`, hoisted into `let`s before
 //!   the statement that uses it. In real arithmetic `1 − d·r_{k+1} = (1 − d·r_k)²` exactly,
 //!   so after `K` steps `0 ≤ 1 − d·r ≤ ((HI − LO)/(HI + LO))^(2^K)` for every `d` in the
-//!   range. Each iterate is clamped to the interval real arithmetic keeps it in (a no-op
+//!   range. With a fourth argument, a table (of 1/x over `[LO, HI]`), the seed is that
+//!   table's value at `d` instead. Each iterate is clamped to the interval real arithmetic keeps it in (a no-op
 //!   there), so that ranges stay structural: no claim, no correlation for a prover to find,
 //!   and the bound on `1 − d·r` follows from the real-arithmetic one and qloop's rounding
 //!   bound on `r`. No division runs on the target.
@@ -76,6 +77,8 @@ pub struct RecipSite {
     pub lets: Vec<String>,
     /// The generated constants: the seed and the iterates' bounds.
     pub consts: Vec<String>,
+    /// The table that seeds the iteration, if one is given (else the constant seed).
+    pub seed_table: Option<String>,
 }
 
 /// Most Newton steps `newton_recip` takes (each doubles the correct bits; 6 take a seed
@@ -718,14 +721,22 @@ impl Expander {
     /// into `let`s, declares the seed `2/(LO + HI)` as a `const`, and returns the last
     /// iterate's name (see the module docs).
     fn newton_recip(&mut self, args: &[Expr], span: Span) -> Result<Expr> {
-        const HELP: &str = "write `newton_recip(d, [LO, HI], K)`: `d` within the constant range \
-                            [LO, HI] (0 < LO < HI; a proof obligation), `K` Newton steps";
+        const HELP: &str = "write `newton_recip(d, [LO, HI], K)` or `newton_recip(d, [LO, HI], K, \
+                            TABLE)`: `d` clamped to the constant range [LO, HI] (0 < LO < HI), `K` \
+                            Newton steps, and optionally a table of 1/x over [LO, HI] as the seed";
         if !self.in_step {
             return Err(Diag::new(span, "`newton_recip` computes in `step`")
                 .help("properties compare values; compute the reciprocal in `step` and store it"));
         }
-        let [d, range, k] = args else {
-            return Err(Diag::new(span, "`newton_recip` takes 3 arguments").help(HELP));
+        let (d, range, k, table) = match args {
+            [d, range, k] => (d, range, k, None),
+            [d, range, k, t] => {
+                let name = path_ident(t).ok_or_else(|| {
+                    Diag::new(t.span(), "expected the name of a table (the seed)").help(HELP)
+                })?;
+                (d, range, k, Some(name))
+            }
+            _ => return Err(Diag::new(span, "`newton_recip` takes 3 or 4 arguments").help(HELP)),
         };
         let Expr::Array(r) = range else {
             return Err(
@@ -763,18 +774,31 @@ impl Expander {
                 unit: None,
             }));
         };
-        let seed = Ident::new(&format!("{id}_seed"), span);
-        konst(
-            &seed,
-            " The seed of a `newton_recip`: 2/(LO + HI), which minimises the largest |1 − d·r₀| over [LO, HI].",
-            syn::parse_quote_spanned!(span=> 2.0 / ((#lo) + (#hi))),
-        );
         let dn = Ident::new(&format!("{id}_d"), span);
         self.hoisted.push(syn::parse_quote_spanned!(span=>
             let #dn = clamp(#d, #lo, #hi);
         ));
         let mut lets = vec![dn.to_string()];
-        let mut prev = seed;
+        let mut prev = match &table {
+            // A table seed: r0 = TABLE(d), a `let` like the iterates.
+            Some(t) => {
+                let r0 = Ident::new(&format!("{id}_r0"), span);
+                self.hoisted.push(syn::parse_quote_spanned!(span=>
+                    let #r0 = #t(#dn);
+                ));
+                lets.push(r0.to_string());
+                r0
+            }
+            None => {
+                let seed = Ident::new(&format!("{id}_seed"), span);
+                konst(
+                    &seed,
+                    " The seed of a `newton_recip`: 2/(LO + HI), which minimises the largest |1 − d·r₀| over [LO, HI].",
+                    syn::parse_quote_spanned!(span=> 2.0 / ((#lo) + (#hi))),
+                );
+                seed
+            }
+        };
         for k in 1..=steps {
             let rk = Ident::new(&format!("{id}_r{k}"), span);
             let (lo_k, hi_k) = (
@@ -820,6 +844,7 @@ impl Expander {
             .collect();
         self.recips.push(RecipSite {
             consts,
+            seed_table: table.map(|t| t.to_string()),
             span,
             lo: lo.clone(),
             hi: hi.clone(),

@@ -25,10 +25,15 @@ mod kw {
     syn::custom_keyword!(forall);
     syn::custom_keyword!(assume);
     syn::custom_keyword!(ensure);
+    syn::custom_keyword!(table);
+    syn::custom_keyword!(error);
 }
 
 const ITEM_HELP: &str = "a controller body holds `period`, `rounding`, `word`, `input`, `param`, \
-`const`, `state`, `output`, `step { .. }` and `prove { .. }` items";
+`const`, `table`, `state`, `output`, `step { .. }` and `prove { .. }` items";
+
+const TABLE_HELP: &str = "write `table NAME(x: [A, B] \"unit\") = EXPR, step H;` (optionally \
+`, error E`): EXPR a compile-time expression of x, H a power of two";
 
 impl Parse for SpecAst {
     fn parse(input: ParseStream) -> syn::Result<Self> {
@@ -142,6 +147,9 @@ fn parse_item(input: ParseStream) -> syn::Result<Item> {
             value,
             unit,
         }))
+    } else if la.peek(kw::table) {
+        input.parse::<kw::table>()?;
+        Ok(Item::Table(Box::new(parse_table(input, attrs)?)))
     } else if la.peek(kw::step) {
         input.parse::<kw::step>()?;
         Ok(Item::Step(input.parse()?))
@@ -268,6 +276,57 @@ fn parse_range(input: ParseStream) -> syn::Result<RangeAst> {
         return Err(content.error("a range is written `[LO, HI]`"));
     }
     Ok(RangeAst { lo, hi, span })
+}
+
+/// The rest of `table NAME(x: [A, B] "unit") = EXPR, step H, error E;`.
+fn parse_table(input: ParseStream, attrs: Vec<Attribute>) -> syn::Result<TableDecl> {
+    let name: Ident = input.parse()?;
+    let args;
+    syn::parenthesized!(args in input);
+    let var: Ident = args
+        .parse()
+        .map_err(|e| syn::Error::new(e.span(), TABLE_HELP))?;
+    args.parse::<Token![:]>()
+        .map_err(|e| syn::Error::new(e.span(), TABLE_HELP))?;
+    let range = parse_range(&args)?;
+    let unit = parse_unit(&args)?;
+    if !args.is_empty() {
+        return Err(args.error(TABLE_HELP));
+    }
+    input
+        .parse::<Token![=]>()
+        .map_err(|e| syn::Error::new(e.span(), TABLE_HELP))?;
+    let value: Expr = input.parse()?;
+    let (mut step, mut error) = (None, None);
+    while input.peek(Token![,]) {
+        input.parse::<Token![,]>()?;
+        if input.peek(kw::step) {
+            input.parse::<kw::step>()?;
+            step = Some(input.parse::<Expr>()?);
+        } else if input.peek(kw::error) {
+            input.parse::<kw::error>()?;
+            error = Some(input.parse::<Expr>()?);
+        } else {
+            return Err(input.error(TABLE_HELP));
+        }
+    }
+    let step = step.ok_or_else(|| {
+        syn::Error::new(
+            name.span(),
+            format!("table `{name}` needs a grid step: `, step H` with H a power of two"),
+        )
+    })?;
+    input.parse::<Token![;]>()?;
+    Ok(TableDecl {
+        attrs,
+        name,
+        var,
+        range,
+        unit,
+        value,
+        step,
+        error,
+    })
 }
 
 /// A signal's declared range: `[LO, HI]`, or per-element ranges `[[LO, HI], [LO, HI], ..]`.

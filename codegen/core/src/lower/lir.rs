@@ -85,6 +85,19 @@ pub enum Op {
     Or(ValId, ValId),
     /// Boolean not.
     Not(ValId),
+    /// The low `k` bits of a non-negative value, `a & (2^k − 1)` (the position inside a
+    /// table segment).
+    Low(ValId, u32),
+    /// Entry `idx` of table array `table` ([`crate::lower::Plan::tables`]): its samples, or
+    /// (`delta`) the differences of consecutive samples.
+    Lookup {
+        /// Index into [`crate::lower::Plan::tables`].
+        table: usize,
+        /// The differences `T[i+1] − T[i]` (0 at the last entry) rather than the samples.
+        delta: bool,
+        /// The index, in `0..=N`.
+        idx: ValId,
+    },
 }
 
 impl Op {
@@ -92,7 +105,13 @@ impl Op {
     pub fn operands(&self) -> Vec<ValId> {
         match *self {
             Op::Input(_) | Op::Load(_) | Op::Const(_) => vec![],
-            Op::Cast(a) | Op::Neg(a) | Op::Shl(a, _) | Op::Shr(a, _) | Op::Not(a) => vec![a],
+            Op::Cast(a)
+            | Op::Neg(a)
+            | Op::Shl(a, _)
+            | Op::Shr(a, _)
+            | Op::Not(a)
+            | Op::Low(a, _)
+            | Op::Lookup { idx: a, .. } => vec![a],
             Op::Add(a, b)
             | Op::Sub(a, b)
             | Op::Mul(a, b)
@@ -114,6 +133,12 @@ impl Op {
             Op::Not(a) => Op::Not(f(a)),
             Op::Shl(a, k) => Op::Shl(f(a), k),
             Op::Shr(a, k) => Op::Shr(f(a), k),
+            Op::Low(a, k) => Op::Low(f(a), k),
+            Op::Lookup { table, delta, idx } => Op::Lookup {
+                table,
+                delta,
+                idx: f(idx),
+            },
             Op::Add(a, b) => Op::Add(f(a), f(b)),
             Op::Sub(a, b) => Op::Sub(f(a), f(b)),
             Op::Mul(a, b) => Op::Mul(f(a), f(b)),

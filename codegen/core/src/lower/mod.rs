@@ -24,6 +24,7 @@ pub mod lir;
 pub mod newton;
 mod rounding;
 pub mod shift_add;
+pub mod table;
 pub mod target;
 
 use crate::diag::{Diag, Result};
@@ -50,6 +51,8 @@ pub struct Plan {
     pub summary: Vec<SigSummary>,
     /// One line per constant multiplication: how it was lowered.
     pub mults: Vec<MulNote>,
+    /// The integer arrays of the step's table look-ups.
+    pub tables: Vec<table::LTable>,
 }
 
 /// What the plan fixes for one signal: every consumer (emitters, prover, interpreter,
@@ -441,6 +444,8 @@ struct Lowerer<'a> {
     /// Physical hull of the values each output receives before its saturation.
     received: HashMap<SigId, (f64, f64)>,
     mults: Vec<MulNote>,
+    /// The arrays of the table look-ups lowered so far.
+    tables: Vec<table::LTable>,
     /// Spec line of the statement being lowered.
     line: usize,
     /// Comparisons lowered so far (the next one's [`Val::decision`]).
@@ -461,6 +466,7 @@ struct Lowered {
     seen: HashMap<SigId, (f64, f64)>,
     received: HashMap<SigId, (f64, f64)>,
     mults: Vec<MulNote>,
+    tables: Vec<table::LTable>,
 }
 
 impl Lowered {
@@ -520,6 +526,7 @@ impl Lowered {
             body,
             summary,
             mults: self.mults,
+            tables: self.tables,
         }
     }
 }
@@ -537,6 +544,7 @@ impl<'a> Lowerer<'a> {
             seen: HashMap::new(),
             received: HashMap::new(),
             mults: Vec::new(),
+            tables: Vec::new(),
             line: 0,
             decisions: 0,
             here: Span::call_site(),
@@ -602,6 +610,7 @@ impl<'a> Lowerer<'a> {
             seen: self.seen,
             received: self.received,
             mults: self.mults,
+            tables: self.tables,
         })
     }
 
@@ -969,6 +978,7 @@ impl<'a> Lowerer<'a> {
             Expr::Max(a, b) => self.binary(a, b, ctx, Bin::Max, out),
             Expr::Mul(a, b, span) => self.product(a, b, *span, ctx, out),
             Expr::Select(c, a, b) => self.select(c, a, b, ctx, out),
+            Expr::Table(t, a, span) => self.table(*t, a, *span, out),
         }
     }
 

@@ -39,8 +39,15 @@ pub fn recip_bound(plan: &Plan, r: &Recip) -> Option<f64> {
     let p = &plan.prog;
     let d_name = &p.sig(r.d).name;
     let site = d_name.strip_suffix("_d")?;
-    let mut eps = r.seed_error();
+    let mut eps = r.seed_error(&p.tables);
     let mut prev = d_name.clone();
+    if let Some((_, r0)) = r.seed_table {
+        // A table seed: the fixed-point value differs from the interpolant by its rounded
+        // entries (half an LSB) and the rounding of its product (at most one LSB).
+        let q = plan.summary[r0.0].format;
+        eps = add(eps, mul(r.hi, 1.5 * q.lsb()));
+        prev = p.sig(r0).name.clone();
+    }
     for k in 1..=r.steps {
         let name = format!("{site}_r{k}");
         let leaves = [d_name.as_str(), prev.as_str()];
@@ -50,7 +57,7 @@ pub fn recip_bound(plan: &Plan, r: &Recip) -> Option<f64> {
             .rposition(|v| v.name.as_deref() == Some(name.as_str()))
             .map(ValId)?;
         let delta = local_rounding(plan, target, &leaves)?;
-        // The seed is a constant, not a value: step 1 reads it exactly (its `err` is 0).
+        // A constant seed is not a value: step 1 reads it exactly (its `err` is 0).
         eps = add(mul(eps, eps), mul(r.hi, delta));
         prev = name;
     }

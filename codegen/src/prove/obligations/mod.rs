@@ -48,6 +48,9 @@ pub enum Kind {
     Inductive,
     /// A user step property.
     Property,
+    /// A table's claimed interpolation error (`table .., error E;`), decided by qloop's own
+    /// analysis: no SMT solver evaluates `exp` or `ln`.
+    Table,
 }
 
 impl Obligation {
@@ -68,6 +71,7 @@ impl Kind {
             Kind::Initial => "initial",
             Kind::Inductive => "inductive",
             Kind::Property => "property",
+            Kind::Table => "table",
         }
     }
 }
@@ -88,6 +92,8 @@ pub enum Goal {
     Invariant(usize),
     /// Property `i` fails.
     Property(usize),
+    /// Table `i`'s claimed interpolation error is exceeded.
+    Table(usize),
 }
 
 /// One obligation.

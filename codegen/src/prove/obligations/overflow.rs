@@ -83,6 +83,8 @@ fn interval_closed(plan: &Plan, id: ValId) -> bool {
         Op::Min(a, b) => (r(a).0.min(r(b).0), r(a).1.min(r(b).1)),
         Op::Max(a, b) => (r(a).0.max(r(b).0), r(a).1.max(r(b).1)),
         Op::Select(_, a, b) => (r(a).0.min(r(b).0), r(a).1.max(r(b).1)),
+        Op::Low(_, k) => (0, (1i128 << k) - 1),
+        Op::Lookup { table, delta, .. } => plan.tables[*table].range(*delta),
         _ => return true,
     };
     v.lo <= lo && hi <= v.hi
@@ -105,6 +107,8 @@ fn op_name(op: &Op) -> &'static str {
         Op::Max(..) => "max",
         Op::Select(..) => "select",
         Op::Cmp(..) | Op::And(..) | Op::Or(..) | Op::Not(..) => "bool",
+        Op::Low(..) => "low bits",
+        Op::Lookup { .. } => "table",
     }
 }
 
