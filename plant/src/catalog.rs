@@ -1,6 +1,7 @@
 //! The built-in plants and their scenarios, by name (for the `qloop sim` and `qloop sweep`
 //! command line), and scenarios read from TOML files.
 
+use crate::finishing::{self, Finishing, FinishingParams};
 use crate::grinding::{self, Grinding, GrindingParams};
 use crate::milling::{self, Milling, MillingParams};
 use crate::plant::Plant;
@@ -8,7 +9,7 @@ use crate::scenario::Scenario;
 use crate::turning::{self, Turning, TurningParams};
 
 /// The names of the built-in plants.
-pub const PLANTS: &[&str] = &["turning", "milling", "grinding"];
+pub const PLANTS: &[&str] = &["turning", "milling", "grinding", "finishing"];
 
 /// The plant named `name`, with its default (paper) parameters.
 pub fn plant_named(name: &str) -> Result<Box<dyn Plant>, String> {
@@ -16,6 +17,7 @@ pub fn plant_named(name: &str) -> Result<Box<dyn Plant>, String> {
         "turning" => Ok(Box::new(Turning::new(TurningParams::default()))),
         "milling" => Ok(Box::new(Milling::new(MillingParams::default()))),
         "grinding" => Ok(Box::new(Grinding::new(GrindingParams::default()))),
+        "finishing" => Ok(Box::new(Finishing::new(FinishingParams::default()))),
         _ => Err(format!(
             "unknown plant `{name}`; built-in plants: {}",
             PLANTS.join(", ")
@@ -29,6 +31,7 @@ pub fn scenarios_of(plant: &str) -> Vec<Scenario> {
         "turning" => turning::scenarios(),
         "milling" => milling::scenarios(),
         "grinding" => grinding::scenarios(),
+        "finishing" => finishing::scenarios(),
         _ => Vec::new(),
     }
 }

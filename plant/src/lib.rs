@@ -6,6 +6,8 @@
 //! * [`milling`]: CNC lag and milling process under force control (003_780323f84df40eb0.txt,
 //!   eqs. 1-3), the work-piece profile of its Fig. 1.
 //! * [`grinding`]: plunge grinding under force control (004_9e0133852f31a0cf.txt).
+//! * [`finishing`]: finish turning under geometric adaptive control, roughness per part with a
+//!   wearing tool (002_39e44efc2e4f2eb6.txt eq. 29, Figs. 10-11).
 //! * [`discrete`]: exact ZOH discretisation of first-order parts (004 eqs. 6-7).
 //! * [`sensor`]: gain, seeded noise, saturation, ADC quantisation.
 //! * [`scenario`]: piecewise-linear channel schedules, in code or TOML.
@@ -17,6 +19,7 @@ pub mod catalog;
 pub mod contract;
 pub mod controller;
 pub mod discrete;
+pub mod finishing;
 pub mod grinding;
 pub mod metrics;
 pub mod milling;

@@ -1,5 +1,6 @@
-//! The machinery of the tests of qloop's C outputs (`tests/c_vectors.rs`, `tests/c_tables.rs`),
-//! for any spec's plan:
+//! The machinery of the tests of qloop's C outputs (`tests/c_vectors.rs`, `tests/c_tables.rs`,
+//! and in part `tests/c_output.rs`, `tests/c_float.rs`, `tests/random_compile.rs`), for any
+//! spec's plan:
 //!
 //! * the fixed-point C (`qloop::gen_c`) compiled with `-Werror` by a target's compiler
 //!   ([`warning_free`]);
@@ -12,9 +13,10 @@
 //!   and glue against the interpreter ([`linuxcnc_matches_interpreter`]).
 //!
 //! The C files are named after the spec (`NAME.h`/`NAME.c`, `NAME_f.h`/`NAME_f.c`). A struct
-//! field is written here from the spec's names ([`field`]), not taken from the emitters, so
-//! that an emitter that stored an element at another index fails the comparisons. Each
-//! function assumes its tool is there: the caller asks [`crate::tool`] first.
+//! field is written here from the spec's names ([`field`]; only a name C reserves is escaped
+//! as the emitters do), not taken from the emitters, so that an emitter that stored an
+//! element at another index fails the comparisons. Each function assumes its tool is there:
+//! the caller asks [`crate::tool`] first.
 
 use qloop::emit::c_float;
 use qloop::emit::linuxcnc::MARKERS;
@@ -38,39 +40,54 @@ pub fn ids(plan: &Plan, k: SigKind) -> Vec<SigId> {
     plan.prog.ids_of(k).collect()
 }
 
-/// xorshift64: a fixed, dependency-free stream of test values.
-pub struct Rng(pub u64);
-
-impl Rng {
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-
-    /// Uniform (nearly) in `[lo, hi]`.
-    pub fn in_range(&mut self, lo: i128, hi: i128) -> i128 {
-        lo + (self.next_u64() as i128).rem_euclid(hi - lo + 1)
-    }
+/// A fixed stream of test values: [`Rng`], or a test's own generator.
+pub trait Stream {
+    /// The next 64 bits.
+    fn next_u64(&mut self) -> u64;
 
     /// Uniform in `[lo, hi]`, rounded to `f32` (so C and Rust see the same value).
-    pub fn float_in(&mut self, lo: f64, hi: f64) -> f64 {
+    fn float_in(&mut self, lo: f64, hi: f64) -> f64 {
         let t = (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
         f64::from((lo + t * (hi - lo)) as f32)
     }
 }
 
+/// xorshift64: a fixed, dependency-free stream of test values.
+pub struct Rng(pub u64);
+
+impl Stream for Rng {
+    fn next_u64(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+}
+
+impl Rng {
+    /// Uniform (nearly) in `[lo, hi]`.
+    pub fn in_range(&mut self, lo: i128, hi: i128) -> i128 {
+        lo + (self.next_u64() as i128).rem_euclid(hi - lo + 1)
+    }
+}
+
 /// A signal as the struct field the API promises: `y`, or `phi[1]`, `P[1][0]` for an element
-/// (the spec's indexing, row-major arrays).
+/// (the spec's indexing, row-major arrays), a name C reserves with the trailing underscore of
+/// the fixed-point C (`qloop::emit::c::ident`).
 pub fn field(plan: &Plan, id: SigId) -> String {
+    field_as(plan, id, qloop::emit::c::ident)
+}
+
+/// [`field`] with the names made C identifiers by `ident` (`c_float::ident` for the float C,
+/// whose reserved names are not the fixed-point C's).
+pub fn field_as(plan: &Plan, id: SigId, ident: fn(&str) -> String) -> String {
     let s = plan.prog.sig(id);
     match &s.elem {
-        None => s.name.clone(),
+        None => ident(&s.name),
         Some(e) => e
             .index
             .iter()
-            .fold(e.group.clone(), |p, i| format!("{p}[{i}]")),
+            .fold(ident(&e.group), |p, i| format!("{p}[{i}]")),
     }
 }
 
@@ -89,11 +106,10 @@ pub fn raw_input(plan: &Plan, id: SigId, rng: &mut Rng) -> i128 {
     }
 }
 
-/// Runs `exe` on `script` (stdin); its output lines as numbers.
-pub fn run_lines<T: std::str::FromStr>(exe: &Path, script: &str) -> Vec<Vec<T>>
-where
-    T::Err: std::fmt::Debug,
-{
+/// Runs `exe` with `script` on its stdin (written from another thread, so that neither pipe
+/// fills up); its stdout. Panics if it cannot be started, if it fails (with its stderr) or if
+/// it did not take all of the script.
+pub fn run_stdin(exe: &Path, script: &str) -> String {
     let mut child = Command::new(exe)
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
@@ -104,18 +120,27 @@ where
     let script = script.to_string();
     let feeder = std::thread::spawn(move || {
         use std::io::Write as _;
-        stdin.write_all(script.as_bytes()).unwrap();
+        stdin.write_all(script.as_bytes())
     });
     let o = child.wait_with_output().unwrap();
-    feeder.join().unwrap();
+    let fed = feeder.join().unwrap();
     assert!(
         o.status.success(),
-        "{} failed ({}): {}",
+        "{} failed ({}):\n{}",
         exe.display(),
         o.status,
         String::from_utf8_lossy(&o.stderr)
     );
-    String::from_utf8_lossy(&o.stdout)
+    fed.unwrap_or_else(|e| panic!("writing the script to {}: {e}", exe.display()));
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// [`run_stdin`]; its output lines as numbers.
+pub fn run_lines<T: std::str::FromStr>(exe: &Path, script: &str) -> Vec<Vec<T>>
+where
+    T::Err: std::fmt::Debug,
+{
+    run_stdin(exe, script)
         .lines()
         .map(|l| l.split_whitespace().map(|x| x.parse().unwrap()).collect())
         .collect()
@@ -225,6 +250,16 @@ pub fn trajectory_and_states(plan: &Plan, rng: &mut Rng, along: usize, apart: us
         .collect()
 }
 
+/// The plan interpreter's variables in the initial state: every state its raw initial value,
+/// every other signal 0.
+fn initial_vars(plan: &Plan) -> Vec<i128> {
+    let mut vars = vec![0i128; plan.prog.signals.len()];
+    for id in ids(plan, SigKind::State) {
+        vars[id.0] = plan.raw_init(id);
+    }
+    vars
+}
+
 /// What qloop's plan interpreter computes for the cases from the initial state: per step, the
 /// raw outputs, then the raw states.
 pub fn interpreted(plan: &Plan, cases: &[Case]) -> Vec<Vec<i64>> {
@@ -233,10 +268,7 @@ pub fn interpreted(plan: &Plan, cases: &[Case]) -> Vec<Vec<i64>> {
         ids(plan, SigKind::Input),
         ids(plan, SigKind::Output),
     );
-    let mut vars = vec![0i128; plan.prog.signals.len()];
-    for id in &states {
-        vars[id.0] = plan.raw_init(*id);
-    }
+    let mut vars = initial_vars(plan);
     cases
         .iter()
         .map(|case| {
@@ -255,6 +287,22 @@ pub fn interpreted(plan: &Plan, cases: &[Case]) -> Vec<Vec<i64>> {
                 .collect()
         })
         .collect()
+}
+
+/// The plan's fixed-point C and [`fixed_driver`], written into `dir` and built for the host
+/// with `cc` and UBSan (every sanitizer error fatal); the executable.
+pub fn fixed_driver_exe(plan: &Plan, cc: &Path, dir: &Path) -> PathBuf {
+    let c = write_c(plan, dir);
+    std::fs::write(dir.join("driver.c"), fixed_driver(plan)).unwrap();
+    let exe = dir.join("driver");
+    run(Command::new(cc)
+        .args(["-std=c99", "-O1", "-Wall", "-Wextra", "-Werror"])
+        .args(["-fsanitize=undefined", "-fno-sanitize-recover=all"])
+        .arg(&c)
+        .arg(dir.join("driver.c"))
+        .arg("-o")
+        .arg(&exe));
+    exe
 }
 
 /// The plan's fixed-point C, built for the host with `cc` and UBSan (every sanitizer error
@@ -277,17 +325,7 @@ pub fn fixed_c_matches_interpreter(plan: &Plan, cc: &Path, dir: &Path, cases: &[
         script.push('\n');
     }
     let want = interpreted(plan, cases);
-    let c = write_c(plan, dir);
-    std::fs::write(dir.join("driver.c"), fixed_driver(plan)).unwrap();
-    let exe = dir.join("driver");
-    run(Command::new(cc)
-        .args(["-std=c99", "-O1", "-Wall", "-Wextra", "-Werror"])
-        .args(["-fsanitize=undefined", "-fno-sanitize-recover=all"])
-        .arg(&c)
-        .arg(dir.join("driver.c"))
-        .arg("-o")
-        .arg(&exe));
-    let got: Vec<Vec<i64>> = run_lines(&exe, &script);
+    let got: Vec<Vec<i64>> = run_lines(&fixed_driver_exe(plan, cc, dir), &script);
     let t = &plan.target.name;
     assert_eq!(got.len(), want.len(), "{t}: step count");
     for (k, (g, w)) in got.iter().zip(&want).enumerate() {
@@ -354,8 +392,12 @@ pub fn eva_file(plan: &Plan, frama: &Path, machdep: &str, c: &Path) -> String {
 /// then the states, `I` re-initialises and prints the states.
 pub fn float_driver(plan: &Plan) -> String {
     let n = &plan.prog.name;
-    let fields =
-        |k: SigKind| -> Vec<String> { ids(plan, k).iter().map(|id| field(plan, *id)).collect() };
+    let fields = |k: SigKind| -> Vec<String> {
+        ids(plan, k)
+            .iter()
+            .map(|id| field_as(plan, *id, c_float::ident))
+            .collect()
+    };
     let (inputs, states, outputs) = (
         fields(SigKind::Input),
         fields(SigKind::State),
@@ -390,7 +432,7 @@ pub fn float_driver(plan: &Plan) -> String {
 
 /// Random `float` values inside each declared range, for inputs also 10% beyond it (the clamp),
 /// with the range ends now and then.
-pub fn draw(rng: &mut Rng, plan: &Plan, kind: SigKind) -> Vec<f64> {
+pub fn draw(rng: &mut impl Stream, plan: &Plan, kind: SigKind) -> Vec<f64> {
     ids(plan, kind)
         .iter()
         .map(|id| {
@@ -569,15 +611,8 @@ pub fn linuxcnc_matches_interpreter(
         .arg(root().join("targets/linuxcnc/test/host_ref.c"))
         .arg("-o")
         .arg(&exe));
-    let (states, inputs, outputs) = (
-        ids(plan, SigKind::State),
-        ids(plan, SigKind::Input),
-        ids(plan, SigKind::Output),
-    );
-    let mut vars = vec![0i128; plan.prog.signals.len()];
-    for id in &states {
-        vars[id.0] = plan.raw_init(*id);
-    }
+    let (inputs, outputs) = (ids(plan, SigKind::Input), ids(plan, SigKind::Output));
+    let mut vars = initial_vars(plan);
     let (mut script, mut want) = (String::new(), Vec::new());
     for _ in 0..steps {
         let row: Vec<String> = inputs

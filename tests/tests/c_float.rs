@@ -17,9 +17,9 @@
 use qloop::emit::c_float;
 use qloop::ir::{Cond, Expr, Program, SigId, SigKind, Stmt};
 use qloop::{Plan, Target};
-use std::io::Write as _;
+use qloop_tests::c_harness::{self, draw, run_stdin, Stream};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::Command;
 
 const CFLAGS: &[&str] = &[
     "-std=c99",
@@ -108,24 +108,6 @@ fn link(dir: &Path, driver: &str, include: &Path, objs: &[PathBuf]) -> PathBuf {
     exe
 }
 
-/// Runs `exe` with `input` on stdin; its stdout.
-fn run(exe: &Path, input: &str) -> String {
-    let mut child = Command::new(exe)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .spawn()
-        .expect("spawn driver");
-    child
-        .stdin
-        .take()
-        .expect("stdin")
-        .write_all(input.as_bytes())
-        .expect("write stdin");
-    let out = child.wait_with_output().expect("driver output");
-    assert!(out.status.success(), "driver exited with {}", out.status);
-    String::from_utf8(out.stdout).expect("utf-8")
-}
-
 /// Parses a line of `%.9g` floats (9 significant digits round-trip every `float` exactly).
 fn floats(line: &str) -> Vec<f64> {
     line.split_whitespace()
@@ -136,19 +118,13 @@ fn floats(line: &str) -> Vec<f64> {
 /// SplitMix64: a small deterministic generator, so every run checks the same cases.
 struct Rng(u64);
 
-impl Rng {
-    fn next(&mut self) -> u64 {
+impl Stream for Rng {
+    fn next_u64(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
         z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
         z ^ (z >> 31)
-    }
-
-    /// Uniform in `[lo, hi]`, rounded to `f32` (so C and Rust see the same value).
-    fn float_in(&mut self, lo: f64, hi: f64) -> f64 {
-        let t = (self.next() >> 11) as f64 / (1u64 << 53) as f64;
-        f64::from((lo + t * (hi - lo)) as f32)
     }
 }
 
@@ -410,47 +386,6 @@ fn branch_signals(prog: &Program, stmts: &[Stmt], out: &mut Vec<String>) {
 // The float step of every seed spec.
 // ---------------------------------------------------------------------------------------
 
-/// A driver for `NAME_f`: `I` (init, print states), `S s…` (set states), `X i…` (step, print
-/// outputs then states), one line per print.
-fn float_driver(prog: &Program) -> String {
-    let n = &prog.name;
-    let names = |k: SigKind| -> Vec<String> {
-        prog.ids_of(k)
-            .map(|id: SigId| c_float::ident(&prog.sig(id).name))
-            .collect()
-    };
-    let (inputs, states, outputs) = (
-        names(SigKind::Input),
-        names(SigKind::State),
-        names(SigKind::Output),
-    );
-    let read = |v: &[String], p: &str| {
-        v.iter()
-            .map(|f| format!("            {p}.{f} = rd();\n"))
-            .collect::<String>()
-    };
-    let print = |v: &[String], p: &str| {
-        v.iter()
-            .map(|f| format!("            printf(\" %.9g\", (double){p}.{f});\n"))
-            .collect::<String>()
-    };
-    format!(
-        "#include <stdio.h>\n#include <stdlib.h>\n#include \"{n}_f.h\"\n\n\
-         static float rd(void)\n{{\n    float v;\n    if (scanf(\"%f\", &v) != 1) exit(2);\n    return v;\n}}\n\n\
-         int main(void)\n{{\n    {n}_f_state s;\n    {n}_f_inputs in;\n    {n}_f_outputs out;\n    char c;\n\
-         \x20   {n}_f_init(&s);\n\
-         \x20   while (scanf(\" %c\", &c) == 1) {{\n\
-         \x20       if (c == 'I') {{\n            {n}_f_init(&s);\n{}            printf(\"\\n\");\n        }} else if (c == 'S') {{\n{}\
-         \x20       }} else if (c == 'X') {{\n{}            {n}_f_step(&s, &in, &out);\n{}{}            printf(\"\\n\");\n\
-         \x20       }} else {{\n            return 3;\n        }}\n    }}\n    return 0;\n}}\n",
-        print(&states, "s"),
-        read(&states, "s"),
-        read(&inputs, "in"),
-        print(&outputs, "out"),
-        print(&states, "s"),
-    )
-}
-
 /// C text without its `/* */` comments (the emitter writes no `//` comments).
 fn strip_comments(c: &str) -> String {
     let mut out = String::new();
@@ -469,8 +404,11 @@ fn fmt_vals(v: &[f64]) -> String {
         .collect::<String>()
 }
 
-/// Compiles spec `prog`'s float step and its driver; the driver executable.
-fn build_float(prog: &Program) -> PathBuf {
+/// Compiles the plan's float step and its driver ([`c_harness::float_driver`]: `I` (init,
+/// print states), `S s…` (set states), `X i…` (step, print outputs then states), one line per
+/// print); the driver executable.
+fn build_float(plan: &Plan) -> PathBuf {
+    let prog = &plan.prog;
     let dir = scratch(&prog.name);
     let (h, c) = c_float::source(prog);
     for text in [&h, &c] {
@@ -485,27 +423,7 @@ fn build_float(prog: &Program) -> PathBuf {
     let src = dir.join(format!("{}_f.c", prog.name));
     std::fs::write(&src, c).expect("write source");
     let obj = compile_object(&dir, &src, &dir);
-    link(&dir, &float_driver(prog), &dir, &[obj])
-}
-
-/// Random `float` values: inside each declared range, and for inputs also 10% beyond it
-/// (exercising the clamp), with the range ends themselves now and then.
-fn draw(rng: &mut Rng, prog: &Program, kind: SigKind) -> Vec<f64> {
-    prog.ids_of(kind)
-        .map(|id| {
-            let (lo, hi) = prog.sig(id).range.expect("inputs and states are ranged");
-            let m = if kind == SigKind::Input {
-                0.1 * (hi - lo)
-            } else {
-                0.0
-            };
-            match rng.next() % 16 {
-                0 => f64::from(lo as f32),
-                1 => f64::from(hi as f32),
-                _ => rng.float_in(lo - m, hi + m),
-            }
-        })
-        .collect()
+    link(&dir, &c_harness::float_driver(plan), &dir, &[obj])
 }
 
 /// Checks one step: C's outputs and states against the reference's, within the bound.
@@ -557,10 +475,10 @@ fn float_step_matches_the_f64_reference_for_every_seed_spec() {
         assert_eq!(names(SigKind::State), r.states, "{file}: states");
         assert_eq!(names(SigKind::Output), r.outputs, "{file}: outputs");
         let bounds = step_error_bounds(prog);
-        let exe = build_float(prog);
+        let exe = build_float(&plan);
 
         // 1. Initial state: each value the nearest float to the reference's.
-        let init = run(&exe, "I\n");
+        let init = run_stdin(&exe, "I\n");
         let want_init = (r.init)();
         assert_eq!(floats(&init), fmt_f32(&want_init), "{file}: init");
 
@@ -569,8 +487,8 @@ fn float_step_matches_the_f64_reference_for_every_seed_spec() {
         let mut script = String::new();
         let mut cases = Vec::new();
         for _ in 0..400 {
-            let st = draw(&mut rng, prog, SigKind::State);
-            let inp = draw(&mut rng, prog, SigKind::Input);
+            let st = draw(&mut rng, &plan, SigKind::State);
+            let inp = draw(&mut rng, &plan, SigKind::Input);
             script.push_str(&format!("S{}\nX{}\n", fmt_vals(&st), fmt_vals(&inp)));
             cases.push((st, inp));
         }
@@ -580,12 +498,12 @@ fn float_step_matches_the_f64_reference_for_every_seed_spec() {
         let mut st = want_init.clone();
         for _ in 0..300 {
             let st32 = fmt_f32(&st);
-            let inp = draw(&mut rng, prog, SigKind::Input);
+            let inp = draw(&mut rng, &plan, SigKind::Input);
             script.push_str(&format!("S{}\nX{}\n", fmt_vals(&st32), fmt_vals(&inp)));
             st = (r.step)(&st, &inp).1;
             cases.push((st32, inp));
         }
-        let out = run(&exe, &script);
+        let out = run_stdin(&exe, &script);
         let lines: Vec<&str> = out.lines().collect();
         assert_eq!(lines.len(), cases.len(), "{file}: driver output");
         let mut worst = 0.0f64;
@@ -706,7 +624,7 @@ fn division_baselines_settle_where_the_reference_does() {
     }
     let exe = build_div(&scratch("div"));
     let script: String = KP_TRUE.iter().map(|k| format!("{k} {STEPS}\n")).collect();
-    let out = run(&exe, &script);
+    let out = run_stdin(&exe, &script);
     let lines: Vec<&str> = out.lines().collect();
     assert_eq!(lines.len(), 2 * KP_TRUE.len(), "driver output:\n{out}");
     let (fr, k_loop) = (1.5, 1.25);
@@ -873,7 +791,7 @@ fn division_baseline_constants_are_the_specs() {
     );
     let dir = scratch("div_constants");
     let exe = link(&dir, &driver, &bench_dir(), &[]);
-    let out = run(&exe, "");
+    let out = run_stdin(&exe, "");
     // `%.9g` round-trips floats; the raw integers are far below 2^24, exact as floats too.
     let got = floats(&out);
     assert_eq!(got.len(), want.len());
@@ -928,18 +846,18 @@ fn float_step_of_every_construct_matches_the_real_interpreter() {
     let (h, _) = c_float::source(prog);
     assert!(h.contains("float float_;") && h.contains("float int_;") && h.contains("float out_;"));
     let bounds = step_error_bounds(prog);
-    let exe = build_float(prog);
+    let exe = build_float(&plan);
     let init: Vec<f64> = prog
         .ids_of(SigKind::State)
         .map(|id| prog.sig(id).init.unwrap_or(0.0))
         .collect();
-    assert_eq!(floats(&run(&exe, "I\n")), fmt_f32(&init), "init");
+    assert_eq!(floats(&run_stdin(&exe, "I\n")), fmt_f32(&init), "init");
     let mut rng = Rng(0xFEA7);
     let (mut script, mut want) = (String::new(), Vec::new());
     let mut paths = std::collections::BTreeMap::<Vec<(usize, bool)>, usize>::new();
     for _ in 0..2000 {
-        let st = draw(&mut rng, prog, SigKind::State);
-        let inp = draw(&mut rng, prog, SigKind::Input);
+        let st = draw(&mut rng, &plan, SigKind::State);
+        let inp = draw(&mut rng, &plan, SigKind::Input);
         script.push_str(&format!("S{}\nX{}\n", fmt_vals(&st), fmt_vals(&inp)));
         let mut vars = vec![0.0; prog.signals.len()];
         for (id, v) in prog.ids_of(SigKind::State).zip(&st) {
@@ -956,7 +874,7 @@ fn float_step_of_every_construct_matches_the_real_interpreter() {
     // Every way through the body was taken: value `if` either way, outer `if` either way
     // (short-circuit or not), inner `if` either way.
     assert!(paths.len() >= 8, "branch coverage {paths:?}");
-    let out = run(&exe, &script);
+    let out = run_stdin(&exe, &script);
     let mut worst = 0.0f64;
     for (k, ((st, inp, o, s), line)) in want.iter().zip(out.lines()).enumerate() {
         let case = format!("case {k}: states {st:?}, inputs {inp:?}");

@@ -16,175 +16,30 @@
 //! tool into a failure.
 
 use qloop::interp::step_fixed;
-use qloop::ir::{SigId, SigKind};
-use qloop::Plan;
-use qloop_tests::{plan_for, run, scratch, spec_stems, tool};
+use qloop::ir::SigKind;
+use qloop_tests::c_harness::{self, fixed_driver_exe, ids, raw_input, run_lines, Rng};
+use qloop_tests::{plan_for, scratch, spec_stems, tool};
 use std::fmt::Write;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
 
 /// Every built-in target with a C compiler (`targets/*.toml`: its compiler and flags, the same
-/// the object-code checks and `qloop bench` use), as (name, compiler, flags). The host's C
-/// is also built with `-Wconversion`.
-fn targets() -> Vec<(String, String, Vec<String>)> {
+/// the object-code checks and `qloop bench` use, which [`c_harness::warning_free`] takes from
+/// the plan's target), as (name, compiler). The host's C is also built with `-Wconversion`.
+fn targets() -> Vec<(String, String)> {
     qloop::targets::builtin()
         .into_iter()
-        .filter_map(|t| {
-            let cc = t.toolchain.cc.clone()?;
-            let mut flags = t.toolchain.cflags.clone();
-            if t.name == "host" {
-                flags.push("-Wconversion".into());
-            }
-            Some((t.name, cc, flags))
-        })
+        .filter_map(|t| Some((t.name, t.toolchain.cc?)))
         .collect()
-}
-
-const WARN: [&str; 6] = ["-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-c"];
-
-/// Writes `NAME.h`/`NAME.c` for `plan` into `dir`; returns the `.c` path.
-fn write_c(plan: &Plan, dir: &Path) -> PathBuf {
-    let (h, c) = qloop::gen_c(plan);
-    let n = &plan.prog.name;
-    std::fs::write(dir.join(format!("{n}.h")), h).unwrap();
-    let p = dir.join(format!("{n}.c"));
-    std::fs::write(&p, c).unwrap();
-    p
 }
 
 #[test]
 fn c_compiles_without_warnings_for_every_target() {
-    for (target, cc, flags) in targets() {
+    for (target, cc) in targets() {
         let Some(cc) = tool(&cc) else { continue };
         for stem in spec_stems() {
             let plan = plan_for(&stem, &target);
             let dir = scratch(&format!("c-warn-{target}-{stem}"));
-            let c = write_c(&plan, &dir);
-            run(Command::new(&cc)
-                .args(WARN)
-                .args(&flags)
-                .arg(&c)
-                .arg("-o")
-                .arg(dir.join("step.o")));
+            c_harness::warning_free(&plan, &cc, &dir);
         }
-    }
-}
-
-fn ids(plan: &Plan, k: SigKind) -> Vec<SigId> {
-    plan.prog.ids_of(k).collect()
-}
-
-/// A driver reading commands from stdin: `S v..` sets the raw states, `I v..` runs one step
-/// on raw inputs and prints the raw outputs, then the raw states.
-fn driver(plan: &Plan) -> String {
-    let n = &plan.prog.name;
-    let field = |id: &SigId| qloop::emit::c::ident(&plan.prog.sig(*id).name);
-    let ty = |id: &SigId| qloop::emit::c::c_ty(plan.format(*id).ty);
-    let mut d = format!(
-        "#include \"{n}.h\"\n#include <stdio.h>\nint main(void) {{\n    {n}_state s;\n    \
-         {n}_inputs in;\n    {n}_outputs out;\n    long long v;\n    char op;\n    \
-         {n}_init(&s);\n    while (scanf(\" %c\", &op) == 1) {{\n        if (op == 'S') {{\n"
-    );
-    for id in ids(plan, SigKind::State) {
-        let _ = writeln!(
-            d,
-            "            if (scanf(\"%lld\", &v) != 1) return 2;\n            s.{} = ({})v;",
-            field(&id),
-            ty(&id)
-        );
-    }
-    d.push_str("        } else {\n");
-    for id in ids(plan, SigKind::Input) {
-        let _ = writeln!(
-            d,
-            "            if (scanf(\"%lld\", &v) != 1) return 2;\n            in.{} = ({})v;",
-            field(&id),
-            ty(&id)
-        );
-    }
-    let _ = writeln!(d, "            {n}_step(&s, &in, &out);");
-    for id in ids(plan, SigKind::Output) {
-        let _ = writeln!(
-            d,
-            "            printf(\"%lld \", (long long)out.{});",
-            field(&id)
-        );
-    }
-    for id in ids(plan, SigKind::State) {
-        let _ = writeln!(
-            d,
-            "            printf(\"%lld \", (long long)s.{});",
-            field(&id)
-        );
-    }
-    d.push_str("            printf(\"\\n\");\n        }\n    }\n    return 0;\n}\n");
-    d
-}
-
-/// Builds the driver with the host gcc and UBSan; runs it on `script`; returns its lines.
-fn run_c(plan: &Plan, dir: &Path, gcc: &Path, script: &str) -> Vec<Vec<i64>> {
-    let c = write_c(plan, dir);
-    std::fs::write(dir.join("driver.c"), driver(plan)).unwrap();
-    let exe = dir.join("driver");
-    run(Command::new(gcc)
-        .args(["-std=c99", "-O1", "-Wall", "-Wextra", "-Werror"])
-        .args(["-fsanitize=undefined", "-fno-sanitize-recover=all"])
-        .arg(&c)
-        .arg(dir.join("driver.c"))
-        .arg("-o")
-        .arg(&exe));
-    let mut child = Command::new(&exe)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut stdin = child.stdin.take().unwrap();
-    let script = script.to_string();
-    let feeder = std::thread::spawn(move || {
-        use std::io::Write as _;
-        stdin.write_all(script.as_bytes()).unwrap();
-    });
-    let o = child.wait_with_output().unwrap();
-    feeder.join().unwrap();
-    assert!(
-        o.status.success(),
-        "C driver failed ({}): {}",
-        o.status,
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8_lossy(&o.stdout)
-        .lines()
-        .map(|l| l.split_whitespace().map(|x| x.parse().unwrap()).collect())
-        .collect()
-}
-
-/// xorshift64: a fixed, dependency-free stream of test values.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-    fn in_range(&mut self, lo: i128, hi: i128) -> i128 {
-        lo + (self.next() as i128).rem_euclid(hi - lo + 1)
-    }
-}
-
-/// Raw input values: mostly inside the declared range, sometimes anywhere in the storage type
-/// (step clamps them), sometimes at the edges.
-fn input(plan: &Plan, id: SigId, rng: &mut Rng) -> i128 {
-    let q = plan.format(id);
-    let (lo, hi) = plan.bounds(id);
-    match rng.next() % 16 {
-        0 => q.ty.min(),
-        1 => q.ty.max(),
-        2 => lo,
-        3 => hi,
-        4 | 5 => rng.in_range(q.ty.min(), q.ty.max()),
-        _ => rng.in_range(lo, hi),
     }
 }
 
@@ -226,7 +81,7 @@ fn c_matches_the_rust_output_bit_for_bit() {
                 .map(|_| {
                     ids(&plan, SigKind::Input)
                         .iter()
-                        .map(|id| input(&plan, *id, &mut rng) as i64)
+                        .map(|id| raw_input(&plan, *id, &mut rng) as i64)
                         .collect()
                 })
                 .collect();
@@ -238,7 +93,7 @@ fn c_matches_the_rust_output_bit_for_bit() {
                 }
                 script.push('\n');
             }
-            let c = run_c(&plan, &dir, &gcc, &script);
+            let c: Vec<Vec<i64>> = run_lines(&fixed_driver_exe(&plan, &gcc, &dir), &script);
             let rust = rust_trajectory(&stem, &inputs);
             assert_eq!(c.len(), rust.len(), "{stem}/{target}: step count");
             for (k, (a, b)) in c.iter().zip(&rust).enumerate() {
@@ -274,7 +129,7 @@ fn c_matches_the_interpreter_from_any_state() {
                     };
                 }
                 for id in &inputs {
-                    vars[id.0] = input(&plan, *id, &mut rng);
+                    vars[id.0] = raw_input(&plan, *id, &mut rng);
                 }
                 script.push('S');
                 for id in &states {
@@ -293,66 +148,21 @@ fn c_matches_the_interpreter_from_any_state() {
                     .collect();
                 want.push(row);
             }
-            let got = run_c(&plan, &dir, &gcc, &script);
+            let got: Vec<Vec<i64>> = run_lines(&fixed_driver_exe(&plan, &gcc, &dir), &script);
             assert_eq!(got, want, "{stem}/{target}");
         }
     }
 }
 
-/// Frama-C Eva on one C file: the summary must report 0 alarms and every contract property
-/// valid.
-fn eva(c: &Path, main: &str, machdep: &str) -> String {
-    let frama = tool("frama-c").expect("checked by the caller");
-    let out = run(Command::new(frama)
-        .args(["-machdep", machdep])
-        .args(["-warn-signed-downcast", "-warn-unsigned-downcast"])
-        .args(["-eva", "-main", main])
-        .arg(c)
-        .args(["-then", "-report"]));
-    assert!(
-        out.contains("0 alarms generated by the analysis"),
-        "{}: Eva raised alarms:\n{out}",
-        c.display()
-    );
-    // Summary rows: `Preconditions  9 valid  0 unknown  0 invalid  9 total`.
-    for l in out
-        .lines()
-        .filter(|l| l.contains(" valid ") && l.contains(" unknown "))
-    {
-        let w: Vec<&str> = l.split_whitespace().collect();
-        let count = |what: &str| {
-            w.iter()
-                .position(|x| *x == what)
-                .and_then(|i| w[i - 1].parse::<u32>().ok())
-        };
-        assert_eq!(count("unknown"), Some(0), "{}: {l}\n{out}", c.display());
-        assert_eq!(count("invalid"), Some(0), "{}: {l}\n{out}", c.display());
-    }
-    assert!(!out.contains("Invalid"), "{}:\n{out}", c.display());
-    out
-}
-
 #[test]
 fn c_is_free_of_runtime_errors_by_frama_c_eva() {
-    if tool("frama-c").is_none() {
-        return;
-    }
+    let Some(frama) = tool("frama-c") else { return };
     for stem in spec_stems() {
         for (target, machdep) in [("host", "x86_64"), ("atmega328p", "x86_16")] {
-            let plan = plan_for(&stem, target);
             let dir = scratch(&format!("c-eva-{target}-{stem}"));
-            let c = write_c(&plan, &dir);
-            let out = eva(&c, &format!("{stem}_eva_main"), machdep);
-            // Every state's bounds are a postcondition of step, proved by the analysis.
-            let n_states = ids(&plan, SigKind::State).len();
-            let posts = out
-                .lines()
-                .filter(|l| l.starts_with("[  Valid  ] Post-condition (file"))
-                .count();
-            assert!(
-                posts >= n_states,
-                "{stem}/{target}: {posts} postconditions proved, want ≥ {n_states}:\n{out}"
-            );
+            // 0 alarms, every contract property valid, and every state's bounds a
+            // postcondition of step, proved by the analysis.
+            c_harness::eva(&plan_for(&stem, target), &frama, machdep, &dir);
         }
     }
 }

@@ -14,12 +14,13 @@
 use qloop::interp::step_fixed;
 use qloop::ir::{SigId, SigKind};
 use qloop::{Plan, Target};
+use qloop_tests::c_harness::run_stdin;
 use qloop_tests::cases::{cases, Case};
 use qloop_tests::random_spec::{legitimate_refusal, run_seed, sample};
 use qloop_tests::{all_specs, claim_corpus, corpus_expectation, run, tool};
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::Command;
 
 /// Random specs per run.
 const RANDOM_SPECS: usize = 200;
@@ -177,29 +178,6 @@ fn commands(plans: &[Plan], seed: u64) -> (String, String) {
     (input, expect)
 }
 
-fn run_with_stdin(exe: &Path, input: &str) -> String {
-    use std::io::Write as _;
-    let mut child = Command::new(exe)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap_or_else(|e| panic!("cannot run {}: {e}", exe.display()));
-    let mut stdin = child.stdin.take().expect("stdin");
-    let text = input.to_string();
-    let writer = std::thread::spawn(move || stdin.write_all(text.as_bytes()));
-    let out = child.wait_with_output().expect("wait");
-    let _ = writer.join();
-    assert!(
-        out.status.success(),
-        "{} failed ({}):\n{}",
-        exe.display(),
-        out.status,
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
 /// The first line where `got` and `want` differ, with the spec it belongs to.
 fn first_difference(plans: &[Plan], input: &str, got: &str, want: &str) -> Option<String> {
     let (g, w): (Vec<&str>, Vec<&str>) = (got.lines().collect(), want.lines().collect());
@@ -301,7 +279,7 @@ fn every_accepted_spec_compiles_and_runs_bit_exact_in_rust_and_c() {
         .arg(cdir.join("all.c"))
         .arg("-o")
         .arg(cdir.join("all")));
-    let c_out = run_with_stdin(&cdir.join("all"), &input);
+    let c_out = run_stdin(&cdir.join("all"), &input);
     if let Some(d) = first_difference(&plans, &input, &c_out, &expect) {
         panic!(
             "seed {seed}: C differs from the plan interpreter: {d} (files in {})",
@@ -352,7 +330,7 @@ fn every_accepted_spec_compiles_and_runs_bit_exact_in_rust_and_c() {
         rdir.display(),
         warnings.join("\n")
     );
-    let r_out = run_with_stdin(&target.join("debug/qloop_random_compile"), &input);
+    let r_out = run_stdin(&target.join("debug/qloop_random_compile"), &input);
     if let Some(d) = first_difference(&plans, &input, &r_out, &expect) {
         panic!("seed {seed}: Rust differs from the plan interpreter: {d}");
     }

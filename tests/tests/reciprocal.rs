@@ -97,3 +97,36 @@ fn the_printed_bounds_hold_over_the_whole_input_range() {
         );
     }
 }
+
+/// The error column of every value (the results' bounds come from Newton's contraction,
+/// `lower::newton::result_err`, not from interval propagation) holds against exact rational
+/// arithmetic of the spec (`qloop_tests::claims`), over the whole input range.
+#[test]
+fn the_error_column_holds_against_exact_arithmetic() {
+    let p = plan();
+    let d_id = p.prog.ids_of(SigKind::Input).next().unwrap();
+    let (lo, hi) = p.raw_bounds(d_id).unwrap();
+    for raw in (lo - 1000..=hi + 1000).step_by(65521) {
+        let case = qloop_tests::cases::Case {
+            inputs: vec![raw],
+            states: vec![],
+        };
+        if let Err(e) = qloop_tests::claims::check(&p, &case) {
+            panic!("raw d = {raw}: {e}");
+        }
+    }
+    // Not vacuous: each result's column is at most what the Newton analysis gives,
+    // (ε_K + E_K)/LO ≤ 2·(printed bound)/LO (the printed bound is ε_K ≥ E_K), the ranges'
+    // LO being 1, 0.25 and 1.
+    let bounds = printed_bounds(&p);
+    for ((id, b), lo) in p
+        .prog
+        .ids_of(SigKind::Output)
+        .zip(bounds)
+        .zip([1.0, 0.25, 1.0])
+    {
+        let err = of_f64(p.summary[id.0].err);
+        let limit = b * Q::from_integer(2.into()) / of_f64(lo) * Q::new(101.into(), 100.into());
+        assert!(err <= limit, "{}: {err} > {limit}", p.prog.sig(id).name);
+    }
+}

@@ -816,6 +816,16 @@ impl<'a> Lowerer<'a> {
                     }
                     self.vals[v.0].name = Some(sig.name.clone());
                     self.locals.insert(*target, v);
+                    // The result of a `newton_recip`: its error against real arithmetic from
+                    // Newton's contraction (`newton::result_err`), far below what interval
+                    // propagation through the iterates gives.
+                    if let Some(r) = self.prog.recips.iter().find(|r| r.r == *target) {
+                        let d = self.vals[self.locals[&r.d].0].err;
+                        if let Some(e) = newton::result_err(self.prog, &self.vals, r, d) {
+                            let own = &mut self.vals[v.0].err;
+                            *own = own.min(e);
+                        }
+                    }
                     return Ok(());
                 }
                 let q = self.formats[target.0];

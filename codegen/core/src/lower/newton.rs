@@ -18,9 +18,9 @@
 //! through interval arithmetic that cannot see that Newton's iteration contracts.
 
 use super::err_bound::{add, mul};
-use super::lir::{Op, ValId};
+use super::lir::{Op, Val, ValId};
 use super::Plan;
-use crate::ir::Recip;
+use crate::ir::{Program, Recip};
 use std::collections::HashMap;
 
 /// `v` rounded to `bits` significant bits (to nearest): a dyadic with at most `bits` ones.
@@ -36,27 +36,48 @@ pub fn short_dyadic(v: f64, bits: i32) -> f64 {
 /// The bound `ε_K ≥ |1 − d·r|` of `r` over the clamped `d` (see the module docs), or `None`
 /// if the lowered code of a step has an operation this analysis does not cover.
 pub fn recip_bound(plan: &Plan, r: &Recip) -> Option<f64> {
-    let p = &plan.prog;
+    bound_over(&plan.prog, &plan.vals, r)
+}
+
+/// A bound on `|r − r_real|`, the error `qloop check` reports for the result: with `d` and
+/// `d_real` both in `[LO, HI]` (clamped), `|r − 1/d| ≤ ε_K/LO` (this module),
+/// `|r_real − 1/d_real| ≤ E_K/LO` (the real iteration, [`Recip::real_error`]) and
+/// `|1/d − 1/d_real| ≤ err(d)/LO²`.
+pub fn result_err(prog: &Program, vals: &[Val], r: &Recip, d_err: f64) -> Option<f64> {
+    let eps = bound_over(prog, vals, r)?;
+    let lo = r.lo;
+    Some(add(
+        mul(
+            add(eps, r.real_error(&prog.tables)),
+            1.0 / lo * (1.0 + 1e-15),
+        ),
+        mul(d_err, 1.0 / (lo * lo) * (1.0 + 1e-15)),
+    ))
+}
+
+/// [`recip_bound`] over the values lowered so far.
+fn bound_over(p: &Program, vals: &[Val], r: &Recip) -> Option<f64> {
     let d_name = &p.sig(r.d).name;
     let site = d_name.strip_suffix("_d")?;
+    let named = |n: &str| {
+        vals.iter()
+            .rposition(|v| v.name.as_deref() == Some(n))
+            .map(ValId)
+    };
     let mut eps = r.seed_error(&p.tables);
     let mut prev = d_name.clone();
     if let Some((_, r0)) = r.seed_table {
         // A table seed: the fixed-point value differs from the interpolant by its rounded
         // entries (half an LSB) and the rounding of its product (at most one LSB).
-        let q = plan.summary[r0.0].format;
-        eps = add(eps, mul(r.hi, 1.5 * q.lsb()));
+        let v = &vals[named(&p.sig(r0).name)?.0];
+        eps = add(eps, mul(r.hi, 1.5 * 2f64.powi(-v.frac)));
         prev = p.sig(r0).name.clone();
     }
     for k in 1..=r.steps {
         let name = format!("{site}_r{k}");
         let leaves = [d_name.as_str(), prev.as_str()];
-        let target = plan
-            .vals
-            .iter()
-            .rposition(|v| v.name.as_deref() == Some(name.as_str()))
-            .map(ValId)?;
-        let delta = local_rounding(plan, target, &leaves)?;
+        let target = named(&name)?;
+        let delta = local_rounding(vals, target, &leaves)?;
         // A constant seed is not a value: step 1 reads it exactly (its `err` is 0).
         eps = add(mul(eps, eps), mul(r.hi, delta));
         prev = name;
@@ -66,9 +87,9 @@ pub fn recip_bound(plan: &Plan, r: &Recip) -> Option<f64> {
 
 /// A bound on the rounding the operations computing `target` add, in physical units, when
 /// the values named in `leaves` are taken as exact (see the module docs).
-fn local_rounding(plan: &Plan, target: ValId, leaves: &[&str]) -> Option<f64> {
+fn local_rounding(vals: &[Val], target: ValId, leaves: &[&str]) -> Option<f64> {
     fn walk(
-        plan: &Plan,
+        vals: &[Val],
         id: ValId,
         leaves: &[&str],
         memo: &mut HashMap<usize, Option<f64>>,
@@ -76,9 +97,9 @@ fn local_rounding(plan: &Plan, target: ValId, leaves: &[&str]) -> Option<f64> {
         if let Some(e) = memo.get(&id.0) {
             return *e;
         }
-        let v = plan.val(id);
+        let v = &vals[id.0];
         let mag = |x: ValId| {
-            let w = plan.val(x);
+            let w = &vals[x.0];
             w.lo.unsigned_abs().max(w.hi.unsigned_abs()) as f64 * 2f64.powi(-w.frac)
         };
         let e = if v.name.as_deref().is_some_and(|n| leaves.contains(&n)) {
@@ -87,24 +108,24 @@ fn local_rounding(plan: &Plan, target: ValId, leaves: &[&str]) -> Option<f64> {
             match v.op {
                 // A constant's own quantisation (0 for the exact 2 and the dyadic seed).
                 Op::Const(_) => Some(v.err),
-                Op::Cast(a) | Op::Neg(a) | Op::Shl(a, _) => walk(plan, a, leaves, memo),
+                Op::Cast(a) | Op::Neg(a) | Op::Shl(a, _) => walk(vals, a, leaves, memo),
                 Op::Shr(a, k) => {
-                    let drop = (2f64.powi(k as i32) - 1.0) * 2f64.powi(-plan.val(a).frac);
-                    Some(add(walk(plan, a, leaves, memo)?, drop))
+                    let drop = (2f64.powi(k as i32) - 1.0) * 2f64.powi(-vals[a.0].frac);
+                    Some(add(walk(vals, a, leaves, memo)?, drop))
                 }
                 Op::Add(a, b) | Op::Sub(a, b) => Some(add(
-                    walk(plan, a, leaves, memo)?,
-                    walk(plan, b, leaves, memo)?,
+                    walk(vals, a, leaves, memo)?,
+                    walk(vals, b, leaves, memo)?,
                 )),
                 Op::Mul(a, b) => {
-                    let (ea, eb) = (walk(plan, a, leaves, memo)?, walk(plan, b, leaves, memo)?);
+                    let (ea, eb) = (walk(vals, a, leaves, memo)?, walk(vals, b, leaves, memo)?);
                     Some(add(add(mul(mag(a), eb), mul(mag(b), ea)), mul(ea, eb)))
                 }
                 // |min(a', b') − min(a, b)| ≤ max(|a' − a|, |b' − b|); the clamp's bounds are
                 // taken as exact, see the module docs.
                 Op::Min(a, b) | Op::Max(a, b) => {
-                    let (ea, eb) = (walk(plan, a, leaves, memo)?, walk(plan, b, leaves, memo)?);
-                    let is_const = |x: ValId| matches!(plan.val(x).op, Op::Const(_));
+                    let (ea, eb) = (walk(vals, a, leaves, memo)?, walk(vals, b, leaves, memo)?);
+                    let is_const = |x: ValId| matches!(vals[x.0].op, Op::Const(_));
                     Some(match (is_const(a), is_const(b)) {
                         (false, true) => ea,
                         (true, false) => eb,
@@ -117,7 +138,7 @@ fn local_rounding(plan: &Plan, target: ValId, leaves: &[&str]) -> Option<f64> {
         memo.insert(id.0, e);
         e
     }
-    walk(plan, target, leaves, &mut HashMap::new())
+    walk(vals, target, leaves, &mut HashMap::new())
 }
 
 #[cfg(test)]

@@ -11,7 +11,8 @@
 //!
 //! `T` holds the samples rounded to nearest in the result's format (the default word, best
 //! for the samples' range), `D` their differences with `D[N] = 0`, so `x = B` reads `T[N]`
-//! and no index is ever clamped. The value's error bound is set from the analysis, not
+//! and no index is ever clamped. The result is clamped to `[min T, max T]`, where it always
+//! lies (a no-op that gives the range analysis the interval). The value's error bound is set from the analysis, not
 //! propagated through the index: the argument's error times the interpolant's largest slope,
 //! half an LSB for the rounded samples (an interpolation of rounded samples is within half
 //! an LSB of that of the exact ones), the rounding of `D[i]·t`, and the table's interpolation
@@ -200,7 +201,20 @@ impl Lowerer<'_> {
             let pf = self.v(prod).frac;
             let pr = self.round(prod, (pf - q.frac).max(0) as u32, span, out)?;
             let rounding = self.v(pr).err;
-            (self.binary_vals(ti, pr, Bin::Add, out)?, rounding)
+            let mut y = self.binary_vals(ti, pr, Bin::Add, out)?;
+            // The value lies between two neighbouring samples (D[i]·t >> s is between D[i]
+            // and 0), so within [min T, max T]; interval arithmetic on T[i] and D[i] cannot
+            // see that, so a clamp (a no-op here and in real arithmetic) states it.
+            let yv = self.v(y).clone();
+            if yv.frac == q.frac && yv.lo < emin {
+                let k = self.constant(q.value(emin), q.frac, span, out)?;
+                y = self.binary_vals(y, k, Bin::Max, out)?;
+            }
+            if yv.frac == q.frac && yv.hi > emax {
+                let k = self.constant(q.value(emax), q.frac, span, out)?;
+                y = self.binary_vals(y, k, Bin::Min, out)?;
+            }
+            (y, rounding)
         };
         // The error bound (see the module docs).
         let slope = tab
