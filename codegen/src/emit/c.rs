@@ -75,11 +75,17 @@ pub fn ident(name: &str) -> String {
 /// A signal as a field of the generated structs: `fc`, or `theta[0]`, `P[1][0]` for an element
 /// of a vector or matrix (the struct holds the whole vector as one array).
 pub fn field(prog: &Program, id: SigId) -> String {
+    field_as(prog, id, ident)
+}
+
+/// [`field`] with the names made C identifiers by `name` (the float C has its own reserved
+/// names).
+pub fn field_as(prog: &Program, id: SigId, name: fn(&str) -> String) -> String {
     let s = prog.sig(id);
     match &s.elem {
-        None => ident(&s.name),
+        None => name(&s.name),
         Some(e) => {
-            let mut f = ident(&e.group);
+            let mut f = name(&e.group);
             for i in &e.index {
                 let _ = write!(f, "[{i}]");
             }
@@ -90,7 +96,12 @@ pub fn field(prog: &Program, id: SigId) -> String {
 
 /// A struct field's declarator: `fc`, `theta[2]`, `P[2][2]`.
 pub fn declarator(prog: &Program, m: &Member) -> String {
-    let mut d = ident(m.name(prog));
+    declarator_as(prog, m, ident)
+}
+
+/// [`declarator`] with the names made C identifiers by `name`.
+pub fn declarator_as(prog: &Program, m: &Member, name: fn(&str) -> String) -> String {
+    let mut d = name(m.name(prog));
     for n in m.dims() {
         let _ = write!(d, "[{n}]");
     }

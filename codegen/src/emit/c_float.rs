@@ -88,26 +88,11 @@ fn sig_ident(prog: &Program, id: SigId) -> String {
 /// A signal as a field of the structs: `fc`, or `theta[0]`, `P[1][0]` for an element of a
 /// vector or matrix.
 pub fn field(prog: &Program, id: SigId) -> String {
-    let s = prog.sig(id);
-    match &s.elem {
-        None => ident(&s.name),
-        Some(e) => {
-            let mut f = ident(&e.group);
-            for i in &e.index {
-                let _ = write!(f, "[{i}]");
-            }
-            f
-        }
-    }
+    super::c::field_as(prog, id, ident)
 }
 
-/// A struct field's declarator: `fc`, `theta[2]`, `P[2][2]`.
 fn declarator(prog: &Program, m: &super::Member) -> String {
-    let mut d = ident(m.name(prog));
-    for n in m.dims() {
-        let _ = write!(d, "[{n}]");
-    }
-    d
+    super::c::declarator_as(prog, m, ident)
 }
 
 fn ids(prog: &Program, k: SigKind) -> Vec<SigId> {

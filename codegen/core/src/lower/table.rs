@@ -61,7 +61,6 @@ impl Lowerer<'_> {
         out: &mut Vec<LStmt>,
     ) -> Result<ValId> {
         let tab = self.prog.tables[t].clone();
-        let n = tab.segments() as i128;
         let k = -(tab.step.log2().round() as i32);
         let x0 = self.expr(arg, NO_CTX, out)?;
         let arg_err = self.v(x0).err;
@@ -228,7 +227,6 @@ impl Lowerer<'_> {
             err_bound::add(rounding, tab.interp_err),
         );
         self.vals[y.0].err = err;
-        let _ = n;
         Ok(y)
     }
 }
