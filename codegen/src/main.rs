@@ -75,7 +75,7 @@ fn run(cli: Cli) -> CliResult {
         } => cli::sim::run(
             &spec,
             &target,
-            (&plant, &scenario),
+            (&plant, scenario.as_deref()),
             &out,
             (substeps, nominal_feed, check),
         ),

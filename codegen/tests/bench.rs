@@ -5,7 +5,7 @@
 //! tools.
 
 mod common;
-use common::{qloop, spec, text};
+use common::{qloop, seed_stems, spec, text};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use test_tools::{find, hidden, skip};
@@ -351,12 +351,7 @@ fn cost_model_choices_are_never_slower_than_plain_multiply_on_atmega328p() {
     if !tools_present(&missing_avr_tools()) {
         return;
     }
-    for name in [
-        "acc_fixed_gain",
-        "grinding_pi",
-        "koren_masory_1981",
-        "milling_acc",
-    ] {
+    for name in seed_stems() {
         let (o, j) = bench(
             &format!("{name}.qloop"),
             "atmega328p",

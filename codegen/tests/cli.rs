@@ -61,10 +61,67 @@ fn step_body(src: &str) -> &str {
     &rest[..end]
 }
 
+/// Every seed spec's file name, sorted.
+fn seed_specs() -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(root().join("verified/specs"))
+        .expect("verified/specs")
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".qloop"))
+        .collect();
+    v.sort();
+    assert!(v.len() >= 6, "seed specs missing: {v:?}");
+    v
+}
+
+/// The length `N` of the module's `const NAME: [T; N]`.
+fn const_array_len(src: &str, name: &str) -> Option<usize> {
+    let decl = format!("const {name}: [");
+    let rest = &src[src.find(&decl)? + decl.len()..];
+    let rest = &rest[rest.find("; ")? + 2..];
+    rest[..rest.find(']')?].parse().ok()
+}
+
+/// Every index in `step` that cannot panic, or the first that might: a constant element index
+/// (`self.theta[1]`, `self.P[1][0]`: an out-of-range constant index does not compile), or a
+/// table lookup masked below the table's length (`QLOOP_TABLE_0[(_42 as usize) & 127]` with
+/// `const QLOOP_TABLE_0: [i32; 128]`). Anything else (a run-time index without a mask, a mask
+/// the array is too short for, a slice) is returned.
+fn unsafe_index<'a>(src: &str, step: &'a str) -> Option<&'a str> {
+    for (at, _) in step.match_indices('[') {
+        let line_start = step[..at].rfind('\n').map_or(0, |i| i + 1);
+        let line_end = step[at..].find('\n').map_or(step.len(), |i| at + i);
+        let line = &step[line_start..line_end];
+        let Some(close) = step[at..].find(']') else {
+            return Some(line);
+        };
+        let index = &step[at + 1..at + close];
+        if !index.is_empty() && index.bytes().all(|b| b.is_ascii_digit()) {
+            continue;
+        }
+        let ident =
+            |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_');
+        let masked = index
+            .strip_prefix('(')
+            .and_then(|i| i.split_once(" as usize) & "))
+            .filter(|(v, _)| ident(v))
+            .and_then(|(_, m)| m.parse::<usize>().ok());
+        let array_start = step[..at]
+            .rfind(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+            .map_or(0, |i| i + 1);
+        let array = &step[array_start..at];
+        let fits = masked.zip(const_array_len(src, array));
+        if fits.is_none_or(|(mask, len)| mask >= len) {
+            return Some(line);
+        }
+    }
+    None
+}
+
 #[test]
 fn generated_step_has_no_division_modulo_or_float() {
-    for s in ["koren_masory_1981.qloop", "acc_fixed_gain.qloop"] {
-        let o = qloop(&["gen", &spec(s), "--lang", "rust"]);
+    for s in seed_specs() {
+        let o = qloop(&["gen", &spec(&s), "--lang", "rust"]);
         assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
         let src = text(&o.stdout);
         let step = step_body(&src);
@@ -72,11 +129,40 @@ fn generated_step_has_no_division_modulo_or_float() {
             step.contains("<<") || step.contains(">>"),
             "no shifts in {s}?"
         );
-        for bad in ["/", "%", "f32", "f64", "unwrap", "expect", "panic", "["] {
+        for bad in ["/", "%", "f32", "f64", "unwrap", "expect", "panic"] {
             assert!(!step.contains(bad), "`{bad}` in step of {s}:\n{step}");
         }
+        if let Some(line) = unsafe_index(&src, step) {
+            panic!("an index that may panic in step of {s}: `{}`", line.trim());
+        }
         assert!(src.contains("pub const fn new()") && src.contains("pub struct Controller"));
-        assert!(src.contains("::fixed::FixedI16<"), "fixed types at the API");
+        assert!(src.contains("::fixed::Fixed"), "fixed types at the API");
+    }
+}
+
+/// The index check accepts what the emitter writes and catches what could panic.
+#[test]
+fn the_index_check_tells_safe_from_unsafe_indexing() {
+    let src =
+        "const QLOOP_TABLE_0: [i32; 128] = [0; 128];\nconst QLOOP_SHORT: [i16; 16] = [0; 16];\n";
+    for ok in [
+        "let a = self.theta[1];",
+        "self.P[1][0] = p;",
+        "let t = QLOOP_TABLE_0[(_42 as usize) & 127];",
+        "let t = QLOOP_SHORT[(_7 as usize) & 15];",
+    ] {
+        assert_eq!(unsafe_index(src, ok), None, "{ok}");
+    }
+    for bad in [
+        "let t = QLOOP_TABLE_0[_42 as usize];",
+        "let t = QLOOP_TABLE_0[(_42 as usize) & 255];",
+        "let t = QLOOP_SHORT[(_7 as usize) & 127];",
+        "let t = UNKNOWN[(_7 as usize) & 1];",
+        "let t = self.theta[i];",
+        "let t = &QLOOP_TABLE_0[1..];",
+        "let t = QLOOP_TABLE_0[(_42 as usize) + 1];",
+    ] {
+        assert_eq!(unsafe_index(src, bad), Some(bad), "{bad}");
     }
 }
 

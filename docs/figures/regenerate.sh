@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Regenerates the paper-reproduction figures (000_b8cbacf29caa8fe2.txt Figs. 5a, 5b, 6, 7 and
-# the milling and grinding runs) with `qloop sim`, from the seed specs in verified/specs.
+# the milling, grinding and finishing runs) with `qloop sim`, from the seed specs in verified/specs.
 # Each figure comes with the run's summary table (*.txt); CI regenerates them and fails if a
 # committed summary no longer matches the code.
 set -euo pipefail
@@ -23,3 +23,5 @@ fig acc_fixed_gain turning speed-drop fig7-conventional-speed-drop
 fig milling_acc milling depth-profile milling-adaptive-depth-profile
 fig grinding_pi grinding force-step grinding-pi-force-step
 fig grinding_pi grinding eta-varying grinding-pi-eta-varying
+fig grinding_adaptive_pzc grinding eta-varying grinding-apzc-eta-varying
+fig gac_surface_finish finishing tool-failure gac-tool-failure

@@ -10,10 +10,15 @@ pub const SETTLE_BAND: f64 = 0.05;
 /// A segment oscillates when, in its last quarter, the oscillation amplitude (√2·RMS about
 /// the mean: a sinusoid's amplitude) exceeds 20% of the reference without decaying against
 /// the quarter before (ratio ≥ 0.8: sustained, e.g. a limit cycle held by saturation), or
-/// exceeds 5% and grows by more than 25% (growing). Sensor noise alone stays below both.
+/// exceeds 5% and grows by more than 25% (growing), and it swings about its mean at least
+/// [`MIN_CYCLES`] times. Neither amplitude is below the settling band (which
+/// [`metrics_noisy`] widens to 4σ of the sensor noise), so that noise alone does not count.
 pub const OSC_SUSTAINED: f64 = 0.2;
 /// See [`OSC_SUSTAINED`].
 pub const OSC_GROWING: f64 = 0.05;
+/// An oscillation needs at least this many cycles (two mean crossings each) in the second
+/// half of its segment.
+pub const MIN_CYCLES: usize = 2;
 
 /// Metrics of one loop over one segment.
 #[derive(Clone, Debug, PartialEq)]
@@ -103,14 +108,18 @@ pub fn segment_in_band(
         (2.0 * s.iter().map(|v| (v - m).powi(2)).sum::<f64>() / s.len() as f64).sqrt()
     };
     let (a3, a4) = (amp(q3), amp(q4));
-    let oscillating =
-        (a4 > OSC_SUSTAINED * r && a4 >= 0.8 * a3) || (a4 > OSC_GROWING * r && a4 > 1.25 * a3);
     let half = &xs[n / 2..];
     let m = half.iter().sum::<f64>() / half.len() as f64;
     let crossings = half
         .windows(2)
         .filter(|w| (w[0] - m) * (w[1] - m) < 0.0)
         .count();
+    // An oscillation swings about its mean: at least MIN_CYCLES cycles in the second half.
+    // A one-way drift (a tool wearing out under a finish loop) grows too, but is no
+    // oscillation.
+    let oscillating = crossings >= 2 * MIN_CYCLES
+        && ((a4 > (OSC_SUSTAINED * r).max(band) && a4 >= 0.8 * a3)
+            || (a4 > (OSC_GROWING * r).max(band) && a4 > 1.25 * a3));
     let dur = t[idx[n - 1]] - t[idx[n / 2]];
     let osc_hz = if dur > 0.0 {
         crossings as f64 / 2.0 / dur

@@ -15,9 +15,10 @@
 //! no libc). Without `gcc` on the `PATH` the tests are skipped (see `qloop_tests::tool`).
 
 use qloop::emit::c_float;
-use qloop::ir::{Cond, Expr, Program, SigId, SigKind, Stmt};
+use qloop::ir::{Cond, Expr, Program, SigId, SigKind, Stmt, Table};
 use qloop::{Plan, Target};
 use qloop_tests::c_harness::{self, draw, run_stdin, Stream};
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -146,10 +147,45 @@ struct Reference {
     step: StepFn,
 }
 
+/// The state names a reference lists (`STATES`): a scalar `x` as itself, a vector `theta[2]` as
+/// `theta[0]`, `theta[1]`, a matrix `P[2][2]` row-major as `P[0][0]`, `P[0][1]`, ...
+fn state_labels(fields: &[(&str, &[usize])]) -> Vec<String> {
+    let mut out = Vec::new();
+    for (name, dims) in fields {
+        let mut labels = vec![name.to_string()];
+        for d in *dims {
+            labels = labels
+                .iter()
+                .flat_map(|l| (0..*d).map(move |i| format!("{l}[{i}]")))
+                .collect();
+        }
+        out.extend(labels);
+    }
+    out
+}
+
+/// One field of `States` from the flat, row-major state values: a scalar, or an array of
+/// the given dimensions (outer first).
+macro_rules! take_state {
+    ($it:ident) => {
+        $it.next().expect("a state value")
+    };
+    ($it:ident, $n:literal $(, $rest:literal)*) => {
+        ::core::array::from_fn::<_, $n, _>(|_| take_state!($it $(, $rest)*))
+    };
+}
+
+/// `reference!(module { scalar, vector[N], matrix[R][C], .. })`: the reference module's states
+/// in declaration order, each with its dimensions (checked against the module's `STATES`).
 macro_rules! reference {
-    ($m:ident { $($s:ident),* }) => {{
+    ($m:ident { $($s:ident $([$n:literal])*),* }) => {{
         use qloop_verified::$m as m;
-        assert_eq!(m::STATES, [$(stringify!($s)),*], "state list of {}", stringify!($m));
+        assert_eq!(
+            m::STATES.to_vec(),
+            state_labels(&[$((stringify!($s), &[$($n),*])),*]),
+            "state list of {}",
+            stringify!($m)
+        );
         Reference {
             inputs: &m::INPUTS,
             states: &m::STATES,
@@ -158,7 +194,8 @@ macro_rules! reference {
             step: |states, inputs| {
                 let mut r = m::Reference::new();
                 let mut it = states.iter().copied();
-                r.set_states(m::States { $($s: it.next().expect("a state value")),* });
+                r.set_states(m::States { $($s: take_state!(it $(, $n)*)),* });
+                assert!(it.next().is_none(), "more state values than states");
                 let o = r.step_values(inputs.try_into().expect("input count"));
                 (o.to_vec(), r.state_values().to_vec())
             },
@@ -174,6 +211,20 @@ fn reference(name: &str) -> Reference {
         "acc_fixed_gain" => reference!(acc_fixed_gain_ref { u }),
         "milling_acc" => reference!(milling_acc_ref { km, kc, u }),
         "grinding_pi" => reference!(grinding_pi_ref { xi }),
+        "grinding_adaptive_pzc" => reference!(grinding_adaptive_pzc_ref {
+            b32,
+            f2n,
+            r,
+            swa,
+            sw,
+            sq32,
+            fp,
+            wp,
+            xp,
+            dxp,
+            xi
+        }),
+        "gac_surface_finish" => reference!(gac_surface_finish_ref { f, theta[2], P[2][2] }),
         other => panic!("spec `{other}` has no reference module here: add it to reference()"),
     }
 }
@@ -234,6 +285,9 @@ impl ErrBound {
 /// * `a ± b`: `e_a + e_b + u·(|a| + |b| + e_a + e_b)`;
 /// * `a·b`: `|a|·e_b + |b|·e_a + e_a·e_b + u·(|a| + e_a)(|b| + e_b)`;
 /// * `min`, `max`, select: the larger error (1-Lipschitz, same branch taken);
+/// * a table lookup: its samples' largest magnitude, and the error of [`table_bound`];
+/// * a `newton_recip` result: also the bound of [`Newton`], which knows the steps contract;
+///   the tighter is taken;
 /// * a saturated store: `max(e, u·max|bound|)` (clamping with rounded bounds);
 /// * an `if`: the larger bound of the two branches for every signal.
 ///
@@ -242,6 +296,11 @@ impl ErrBound {
 /// within a rounding error of its threshold is a probability-1e-7 event, and the cases are
 /// fixed by the seed.
 fn step_error_bounds(prog: &Program) -> Vec<ErrBound> {
+    step_error_analysis(prog).0
+}
+
+/// [`step_error_bounds`], and what it recognised of the `newton_recip`s.
+fn step_error_analysis(prog: &Program) -> (Vec<ErrBound>, Newton) {
     let mut env = vec![ErrBound::default(); prog.signals.len()];
     for (i, s) in prog.signals.iter().enumerate() {
         let bound = s.range.map_or(0.0, |(lo, hi)| lo.abs().max(hi.abs()));
@@ -261,15 +320,23 @@ fn step_error_bounds(prog: &Program) -> Vec<ErrBound> {
             SigKind::Output | SigKind::Local => {}
         }
     }
-    block_bounds(prog, &prog.body, &mut env);
-    env
+    let mut nt = Newton::default();
+    block_bounds(prog, &prog.body, &mut env, &mut nt);
+    (env, nt)
 }
 
-fn block_bounds(prog: &Program, stmts: &[Stmt], env: &mut [ErrBound]) {
+fn block_bounds(prog: &Program, stmts: &[Stmt], env: &mut [ErrBound], nt: &mut Newton) {
     for s in stmts {
         match s {
             Stmt::Assign { target, value, .. } => {
-                let v = expr_bound(value, env);
+                let mut v = expr_bound(value, &prog.tables, env);
+                // A `newton_recip` result: both bounds hold, take the tighter.
+                if let Some(b) = nt.assign(prog, env, *target, value) {
+                    v = ErrBound {
+                        mag: v.mag.min(b.mag),
+                        err: v.err.min(b.err),
+                    };
+                }
                 let sig = prog.sig(*target);
                 env[target.0] = match (sig.kind, sig.range) {
                     (SigKind::Local, _) | (_, None) => v,
@@ -284,9 +351,9 @@ fn block_bounds(prog: &Program, stmts: &[Stmt], env: &mut [ErrBound]) {
             }
             Stmt::If { then, els, .. } => {
                 let mut t = env.to_vec();
-                block_bounds(prog, then, &mut t);
+                block_bounds(prog, then, &mut t, nt);
                 let mut e = env.to_vec();
-                block_bounds(prog, els, &mut e);
+                block_bounds(prog, els, &mut e, nt);
                 for (slot, (a, b)) in env.iter_mut().zip(t.into_iter().zip(e)) {
                     *slot = a.max(b);
                 }
@@ -295,7 +362,7 @@ fn block_bounds(prog: &Program, stmts: &[Stmt], env: &mut [ErrBound]) {
     }
 }
 
-fn expr_bound(e: &Expr, env: &[ErrBound]) -> ErrBound {
+fn expr_bound(e: &Expr, tables: &[Table], env: &[ErrBound]) -> ErrBound {
     let sum = |a: ErrBound, b: ErrBound| {
         let err = a.err + b.err;
         ErrBound {
@@ -303,16 +370,17 @@ fn expr_bound(e: &Expr, env: &[ErrBound]) -> ErrBound {
             err: err + U32 * (a.mag + b.mag + err),
         }
     };
+    let x = |a: &Expr| expr_bound(a, tables, env);
     match e {
         Expr::Const { value, .. } => ErrBound {
             mag: value.abs(),
             err: U32 * value.abs(),
         },
         Expr::Var(id, _) => env[id.0],
-        Expr::Neg(a) => expr_bound(a, env),
-        Expr::Add(a, b) | Expr::Sub(a, b) => sum(expr_bound(a, env), expr_bound(b, env)),
+        Expr::Neg(a) => x(a),
+        Expr::Add(a, b) | Expr::Sub(a, b) => sum(x(a), x(b)),
         Expr::Mul(a, b, _) => {
-            let (a, b) = (expr_bound(a, env), expr_bound(b, env));
+            let (a, b) = (x(a), x(b));
             ErrBound {
                 mag: a.mag * b.mag,
                 err: a.mag * b.err
@@ -321,14 +389,190 @@ fn expr_bound(e: &Expr, env: &[ErrBound]) -> ErrBound {
                     + U32 * (a.mag + a.err) * (b.mag + b.err),
             }
         }
-        Expr::Min(a, b) | Expr::Max(a, b) | Expr::Select(_, a, b) => {
-            expr_bound(a, env).max(expr_bound(b, env))
-        }
-        // No seed spec has a table; this analysis does not bound one (c_tables.rs does).
-        Expr::Table(..) => ErrBound {
-            mag: f64::INFINITY,
-            err: f64::INFINITY,
+        Expr::Min(a, b) | Expr::Max(a, b) | Expr::Select(_, a, b) => x(a).max(x(b)),
+        Expr::Table(t, a, _) => table_bound(&tables[*t], x(a)),
+    }
+}
+
+/// The `newton_recip` iterates seen so far by [`block_bounds`], for a bound on the result
+/// that knows what the interval analysis of [`expr_bound`] cannot: that a Newton step
+/// `r' = r·(2 − d·r)` contracts (`1 − d·r' = (1 − d·r)²`), so an error in `r` is squared
+/// away rather than multiplied by the factors' magnitudes.
+///
+/// In `float`, with `h = |1 − d̂·r̂|` for the float divisor `d̂` and iterate `r̂`, the step
+/// `r̂' = fl(r̂·fl(2 − fl(d̂·r̂)))` gives `|1 − d̂·r̂'| ≤ h² + γ(h)`, where
+/// `γ(h) = u·(1 + h)²·(1 + u) + (2u + u²)·(1 + h² + u·(1 + h)²)` (`fl(d̂·r̂) = (1 − h)(1 + δ₁)`,
+/// `2 − fl(d̂·r̂) = 1 + h − δ₁(1 − h)`, two more roundings); the step's clamp only moves `r̂`
+/// toward `1/d̂` when `1/d̂` is inside it, which is checked. The table seed starts at
+/// `h₀ = max |1 − d·L(d)| + hi·e_L` (`ir::Recip::seed_error` of the f64 samples, and the
+/// float lookup's own error `e_L` at the same argument, [`table_bound`]). The reference's
+/// result `r` has `0 ≤ 1 − d·r ≤ ε` (`ir::Recip::real_error`). With `d, d̂ ∈ [lo, hi]` (both
+/// clamped there) and `|d̂ − d| ≤ e_d`:
+///
+/// `|r̂ − r| ≤ |r̂ − 1/d̂| + |1/d̂ − 1/d| + |1/d − r| ≤ h_K/lo + e_d/lo² + ε/lo`, and `r ≤ 1/lo`.
+///
+/// Only the shapes `newton_recip` expands to are recognised (the divisor clamped to `[lo, hi]`,
+/// a table seed of it, `t = 2 − d·r_k`, `r_{k+1} = clamp(r_k·t, a, b)`); anything else keeps
+/// the bound of [`expr_bound`].
+#[derive(Default)]
+struct Newton {
+    /// A divisor clamped to constant bounds: `(lo, hi)`.
+    clamped: HashMap<SigId, (f64, f64)>,
+    /// An iterate (the seed is the 0th): its `newton_recip` and its `h` bound.
+    iterates: HashMap<SigId, (usize, f64)>,
+    /// A correction factor `t = 2 − d·r_k`: `r_k`.
+    corrections: HashMap<SigId, SigId>,
+}
+
+/// `(a, b)` for `min(max(x, a), b)`, with `x`.
+fn clamp_of(e: &Expr) -> Option<(&Expr, f64, f64)> {
+    match e {
+        Expr::Min(m, b) => match (&**m, &**b) {
+            (Expr::Max(x, a), Expr::Const { value: hi, .. }) => match &**a {
+                Expr::Const { value: lo, .. } => Some((x, *lo, *hi)),
+                _ => None,
+            },
+            _ => None,
         },
+        _ => None,
+    }
+}
+
+/// The two signals a product of two signals reads.
+fn product_of(e: &Expr) -> Option<(SigId, SigId)> {
+    match e {
+        Expr::Mul(a, b, _) => match (&**a, &**b) {
+            (Expr::Var(a, _), Expr::Var(b, _)) => Some((*a, *b)),
+            _ => None,
+        },
+        _ => None,
+    }
+}
+
+/// Whether `v` is exact in `float`.
+fn is_float(v: f64) -> bool {
+    f64::from(v as f32) == v
+}
+
+impl Newton {
+    /// Records what `target = value` is, if it is a step of a `newton_recip`; the bound of
+    /// its result when `target` is one.
+    fn assign(
+        &mut self,
+        prog: &Program,
+        env: &[ErrBound],
+        target: SigId,
+        value: &Expr,
+    ) -> Option<ErrBound> {
+        let u = U32;
+        if let Some((_, lo, hi)) = clamp_of(value) {
+            self.clamped.insert(target, (lo, hi));
+        }
+        let recip = |d: SigId| prog.recips.iter().position(|r| r.d == d);
+        // The divisor's range, if the divisor is clamped to exactly it in both arithmetics.
+        let divisor = |j: usize| {
+            let r = &prog.recips[j];
+            (self.clamped.get(&r.d) == Some(&(r.lo, r.hi))
+                && is_float(r.lo)
+                && is_float(r.hi)
+                && r.lo > 0.0)
+                .then_some((r.lo, r.hi))
+        };
+        let mut found = None;
+        match value {
+            // The table seed `L(d)`.
+            Expr::Table(t, a, _) => {
+                if let Expr::Var(d, _) = &**a {
+                    if let Some(j) = recip(*d) {
+                        let r = &prog.recips[j];
+                        if let (Some((_, hi)), Some((tt, let_))) = (divisor(j), r.seed_table) {
+                            if tt == *t && let_ == target {
+                                let e_l = table_bound(&prog.tables[*t], ErrBound::default()).err;
+                                found = Some((j, r.seed_error(&prog.tables) + hi * e_l));
+                            }
+                        }
+                    }
+                }
+            }
+            // A correction `2 − d·r_k`.
+            Expr::Sub(two, p) => {
+                if let (Expr::Const { value: c, .. }, Some((a, b))) = (&**two, product_of(p)) {
+                    for (d, rk) in [(a, b), (b, a)] {
+                        let same = self
+                            .iterates
+                            .get(&rk)
+                            .is_some_and(|(j, _)| prog.recips[*j].d == d);
+                        if *c == 2.0 && same {
+                            self.corrections.insert(target, rk);
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+        // A step `clamp(r_k·t, a, b)`.
+        if let Some((x, a, b)) = clamp_of(value) {
+            if let Some((p, q)) = product_of(x) {
+                for (rk, t) in [(p, q), (q, p)] {
+                    if self.corrections.get(&t) != Some(&rk) {
+                        continue;
+                    }
+                    let (j, h) = self.iterates[&rk];
+                    // The clamp contains 1/d̂ for every d̂ in range, with its float rounding.
+                    if let Some((lo, hi)) = divisor(j) {
+                        if a * (1.0 + u) <= 1.0 / hi && b * (1.0 - u) >= 1.0 / lo {
+                            let gamma = u * (1.0 + h).powi(2) * (1.0 + u)
+                                + (2.0 * u + u * u) * (1.0 + h * h + u * (1.0 + h).powi(2));
+                            found = Some((j, h * h + gamma));
+                        }
+                    }
+                }
+            }
+        }
+        let (j, h) = found?;
+        self.iterates.insert(target, (j, h));
+        let r = &prog.recips[j];
+        if r.r != target || h >= 1.0 {
+            return None;
+        }
+        let (lo, _) = divisor(j)?;
+        let eps = r.real_error(&prog.tables);
+        let e_d = env[r.d.0].err;
+        Some(ErrBound {
+            mag: (1.0 + eps) / lo,
+            err: (h / lo + e_d / (lo * lo) + eps / lo) * (1.0 + 4.0 * u),
+        })
+    }
+}
+
+/// A table lookup `L(x)` in `float` (`c_float`'s `NAME_table_I`: clamp, `u = (x − lo)·(1/H)`,
+/// `i = (unsigned)u`, `t = u − i`, `s_i + t·(s_{i+1} − s_i)` over the samples rounded to
+/// `float`) against the interpolant of the f64 samples at the exact argument (what the
+/// reference computes, up to its own f64 rounding):
+///
+/// * magnitude: the interpolant lies between its samples, so `max |s_i|`;
+/// * the argument: `L` is Lipschitz with `λ = max |s_{i+1} − s_i|/H` (extended linearly past
+///   the last sample too), and the point the float code interpolates at is off from the exact
+///   clamped argument by at most `e_x` (clamping is 1-Lipschitz), `u·max(|lo|, |hi|)` twice
+///   (the clamp bounds and `lo` rounded to `float`) and `u·(hi − lo)` (the rounding of
+///   `x − lo`; `1/H` is a power of two, exact, and `t = u − i` is exact by Sterbenz's
+///   lemma): `λ·(e_x + u·(2·max(|lo|, |hi|) + hi − lo))`;
+/// * the evaluation: the rounded samples (`u·s_max`), their difference (`2u·s_max + u·d_max`),
+///   the product by `t ∈ [0, 1]` (`u·d_max`) and the sum (`u·(s_max + d_max)`):
+///   `u·(4·s_max + 3·d_max)`, with `d_max = max |s_{i+1} − s_i|`; second-order terms are
+///   covered by the factor `1 + 8u`.
+fn table_bound(t: &Table, arg: ErrBound) -> ErrBound {
+    let smax = t.samples.iter().fold(0f64, |m, s| m.max(s.abs()));
+    let dmax = t
+        .samples
+        .windows(2)
+        .fold(0f64, |m, w| m.max((w[1] - w[0]).abs()));
+    let lip = dmax / t.step;
+    let ends = t.lo.abs().max(t.hi.abs());
+    let shift = arg.err + U32 * (2.0 * ends + (t.hi - t.lo));
+    ErrBound {
+        mag: smax,
+        err: (lip * shift + U32 * (4.0 * smax + 3.0 * dmax)) * (1.0 + 8.0 * U32),
     }
 }
 
@@ -455,7 +699,7 @@ fn check_step(
             d <= tol,
             "{spec}, {case}: `{}` is {g} in C float, {w} in the f64 reference (|diff| {d:e} > \
              bound {tol:e})",
-            prog.sig(*id).name
+            prog.sig(*id).label()
         );
     }
 }
@@ -468,13 +712,21 @@ fn float_step_matches_the_f64_reference_for_every_seed_spec() {
     for (file, plan) in seed_specs() {
         let prog = &plan.prog;
         let r = reference(&prog.name);
-        let names = |k: SigKind| -> Vec<String> {
-            prog.ids_of(k).map(|id| prog.sig(id).name.clone()).collect()
-        };
+        let names =
+            |k: SigKind| -> Vec<String> { prog.ids_of(k).map(|id| prog.sig(id).label()).collect() };
         assert_eq!(names(SigKind::Input), r.inputs, "{file}: inputs");
         assert_eq!(names(SigKind::State), r.states, "{file}: states");
         assert_eq!(names(SigKind::Output), r.outputs, "{file}: outputs");
-        let bounds = step_error_bounds(prog);
+        let (bounds, newton) = step_error_analysis(prog);
+        // Every `newton_recip` is bounded as Newton steps (else its interval bound, sound but
+        // far too wide to check anything, would silently stand in).
+        for r in &prog.recips {
+            assert!(
+                newton.iterates.contains_key(&r.r),
+                "{file}: `{}` is not recognised as a newton_recip result",
+                prog.sig(r.r).label()
+            );
+        }
         let exe = build_float(&plan);
 
         // 1. Initial state: each value the nearest float to the reference's.

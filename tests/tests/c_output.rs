@@ -44,7 +44,7 @@ fn c_compiles_without_warnings_for_every_target() {
 }
 
 /// The `qloop-verified` module of a seed spec, run from its initial state on raw inputs:
-/// every step's raw outputs, then raw states.
+/// every step's raw outputs, then raw states (a vector's elements row-major).
 fn rust_trajectory(stem: &str, inputs: &[Vec<i64>]) -> Vec<Vec<i64>> {
     macro_rules! run {
         ($m:ident) => {{
@@ -63,6 +63,10 @@ fn rust_trajectory(stem: &str, inputs: &[Vec<i64>]) -> Vec<Vec<i64>> {
         "acc_fixed_gain" => run!(acc_fixed_gain),
         "milling_acc" => run!(milling_acc),
         "grinding_pi" => run!(grinding_pi),
+        "grinding_adaptive_pzc" => run!(grinding_adaptive_pzc),
+        // Vector and matrix states: `step_bits`/`state_bits` flatten them row-major, the
+        // order of the C driver's fields (`theta[0]`, `theta[1]`, `P[0][0]`, ..).
+        "gac_surface_finish" => run!(gac_surface_finish),
         other => panic!("seed spec {other} is not in qloop-verified"),
     }
 }

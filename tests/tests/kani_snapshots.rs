@@ -12,6 +12,54 @@ fn count_clauses(c: &qloop::ir::PCond) -> usize {
     }
 }
 
+/// The attributes that end `text` (the ones of the item after it), nearest first, each on one
+/// line: an attribute the formatter broke over several lines (a long `kani::stub` path) is
+/// joined, `#[cfg_attr(\n    kani,\n    kani::stub(a, b)\n)]` as `#[cfg_attr(kani, kani::stub(a, b))]`.
+fn attributes_before(text: &str) -> Vec<String> {
+    let mut rest = text.trim_end();
+    let mut out = Vec::new();
+    while rest.ends_with(']') {
+        // The `[` that opens the last `]`.
+        let b = rest.as_bytes();
+        let mut depth = 0usize;
+        let mut open = None;
+        for i in (0..b.len()).rev() {
+            match b[i] {
+                b']' => depth += 1,
+                b'[' => {
+                    depth -= 1;
+                    if depth == 0 {
+                        open = Some(i);
+                        break;
+                    }
+                }
+                _ => {}
+            }
+        }
+        let Some(i) = open.filter(|&i| i > 0 && b[i - 1] == b'#') else {
+            break;
+        };
+        let joined = rest[i - 1..]
+            .split_whitespace()
+            .collect::<Vec<_>>()
+            .join(" ");
+        out.push(
+            joined
+                .replace("( ", "(")
+                .replace(" )", ")")
+                .replace(",)", ")"),
+        );
+        rest = rest[..i - 1].trim_end();
+    }
+    out
+}
+
+/// `kani::stub(` arguments and `kani::assume(` clauses as the formatter may write them, with a
+/// trailing comma when broken over lines: without it.
+fn without_trailing_comma(s: &str) -> String {
+    s.strip_suffix(',').unwrap_or(s).to_string()
+}
+
 fn compile(src: &str) -> qloop::Plan {
     qloop::compile_str(src, &qloop::Target::default()).unwrap_or_else(|e| panic!("{e}"))
 }
@@ -50,13 +98,7 @@ fn harness_snapshots() {
                 .find(&format!("fn {h}()"))
                 .unwrap_or_else(|| panic!("{stem}: harness {h} missing"));
             // The attributes: `#[test]`, the Kani proof, then any stub or solver.
-            let attrs: Vec<&str> = text[..at]
-                .lines()
-                .rev()
-                .skip(1)
-                .take_while(|l| l.trim_start().starts_with("#["))
-                .map(str::trim)
-                .collect();
+            let attrs = attributes_before(&text[..at]);
             let stubs = attrs
                 .iter()
                 .take_while(|a| {
@@ -100,8 +142,11 @@ fn every_assumed_clause_is_a_lemma_over_the_asserted_box() {
         let mut stubbed = std::collections::BTreeSet::new();
         for (i, _) in text.match_indices("kani::stub(") {
             let rest = &text[i + "kani::stub(".len()..];
-            let args = &rest[..rest.find(')').expect("closing parenthesis")];
-            let (real, abs) = args.split_once(", ").expect("two arguments");
+            let args: String = rest[..rest.find(')').expect("closing parenthesis")]
+                .split_whitespace()
+                .collect();
+            let args = without_trailing_comma(&args);
+            let (real, abs) = args.split_once(',').expect("two arguments");
             let n = real.rsplit("qloop_mul_").next().unwrap_or_default();
             assert_eq!(
                 abs,
@@ -128,7 +173,10 @@ fn every_assumed_clause_is_a_lemma_over_the_asserted_box() {
         for abs in &abstractions {
             let b = squeeze(body(abs));
             let b = b.as_str();
-            let assumed: Vec<String> = between(b, "kani::assume(", ");");
+            let assumed: Vec<String> = between(b, "kani::assume(", ");")
+                .iter()
+                .map(|c| without_trailing_comma(c))
+                .collect();
             assert!(!assumed.is_empty(), "{stem}: {abs} assumes nothing");
             let boxes = between(b, "kani::assert(", ".contains(&");
             assert_eq!(

@@ -6,8 +6,9 @@
 //! * no multiply where the plan chose shift-add. The C is built a second time with every
 //!   multiply the plan *did* choose replaced by a call to an opaque external function; the
 //!   object must then contain no multiply instruction and no multiply helper call at all, so
-//!   any multiply left would be a shift-add network the compiler folded back. The number of
-//!   opaque calls equals the plan's multiply count, which checks the replacement itself.
+//!   any multiply left would be a shift-add network the compiler folded back (a multiply by
+//!   a power of two loaded just before is a left shift, see [`by_power_of_two`]). The number
+//!   of opaque calls equals the plan's multiply count, which checks the replacement itself.
 //!   Functions are found by their exact symbol (`NAME_step`, `…::Controller::step`).
 //! * Rust (`qloop-verified`, built by rustc for thumbv6m, thumbv7em, riscv32i and
 //!   riscv32imc): each `step` has no division, and on ARMv6-M and RV32I (where a re-formed
@@ -63,6 +64,53 @@ fn is_mul(line: &str) -> bool {
             m.as_str(),
             "smull" | "umull" | "smlal" | "umlal" | "mla" | "mls" | "fmul" | "fmuls" | "fmulsu"
         )
+}
+
+/// Whether the multiply instruction at `asm[i]` multiplies by a power of two: one of its
+/// factors' registers was set to a power-of-two immediate by one of the 8 instructions before
+/// it, and no instruction in between writes that register (as its first operand). The C writes a left
+/// shift of a signed value as `x * 2^k` (C99 leaves `x << k` undefined for negative `x`);
+/// GCC for Cortex-M4 may fold that multiply and the add after it into one `smlal`. That is a
+/// shift, not a shift-add network folded back. Helper calls never count as one.
+fn by_power_of_two(asm: &[String], i: usize) -> bool {
+    // `  8e:\tmov.w\tr3, #536870912\t@ 0x20000000` → `["r3", "#536870912"]`.
+    let operands = |l: &str| -> Vec<String> {
+        l.split('\t')
+            .nth(2)
+            .map(|o| o.split(',').map(|r| r.trim().to_string()).collect())
+            .unwrap_or_default()
+    };
+    let power_of_two = |v: &str| {
+        let v = v.strip_prefix('#')?;
+        match v.strip_prefix("0x") {
+            Some(h) => u64::from_str_radix(h, 16).ok(),
+            None => v.parse::<u64>().ok(),
+        }
+        .filter(|v| v.is_power_of_two())
+    };
+    let line = &asm[i];
+    if line.contains("__") || line.contains('<') {
+        return false;
+    }
+    // The factors: `smlal lo, hi, a, b`, `mla d, a, b, acc`, `mul d, a, b`, `muls d, a`.
+    let ops = operands(line);
+    let factors: &[String] = match (mnemonic(line).as_str(), ops.len()) {
+        ("smull" | "umull" | "smlal" | "umlal", 4) => &ops[2..],
+        ("mla" | "mls", 4) | (_, 3) => &ops[1..3],
+        (_, 2) => &ops[..],
+        _ => return false,
+    };
+    let before = &asm[i.saturating_sub(8)..i];
+    factors.iter().any(|r| {
+        // The latest write to `r` before the multiply.
+        let set = before.iter().rev().find(|l| operands(l).first() == Some(r));
+        set.is_some_and(|l| {
+            let ops = operands(l);
+            matches!(mnemonic(l).as_str(), "mov" | "mov.w" | "movs" | "movw")
+                && ops.len() == 2
+                && power_of_two(&ops[1]).is_some()
+        })
+    })
 }
 
 /// The mnemonic of an objdump line without raw bytes (`  1c:\tmuls\tr3, r1` → `muls`).
@@ -190,7 +238,12 @@ fn check_c(target: &str) {
         let obj2 = dir.join("step_opaque.o");
         compile_c(&cc, &t.toolchain.cflags, &src2, &obj2);
         let asm2 = functions(&od, &obj2, &step);
-        let muls: Vec<&String> = asm2.iter().filter(|l| is_mul(l)).collect();
+        let muls: Vec<&String> = asm2
+            .iter()
+            .enumerate()
+            .filter(|(i, l)| is_mul(l) && !by_power_of_two(&asm2, *i))
+            .map(|(_, l)| l)
+            .collect();
         assert!(
             muls.is_empty(),
             "{stem}/{target}: the compiler turned a shift-add network into a multiply: {muls:?}"
@@ -299,5 +352,34 @@ fn rust_step_has_no_division_and_no_unplanned_library_multiply() {
                 );
             }
         }
+    }
+}
+
+/// The power-of-two exception of the multiply check covers only a factor loaded with a
+/// power of two right before, and nothing else.
+#[test]
+fn only_a_multiply_by_a_power_of_two_is_a_shift() {
+    let asm = |lines: &[&str]| -> Vec<String> { lines.iter().map(|l| l.to_string()).collect() };
+    let shift = asm(&[
+        "  8e:\tmov.w\tr3, #536870912\t@ 0x20000000",
+        "  92:\tsmlal\tr0, r1, r2, r3",
+    ]);
+    assert!(by_power_of_two(&shift, 1));
+    for bad in [
+        // Not a power of two: a constant multiply re-formed.
+        asm(&["  8e:\tmov.w\tr3, #5", "  92:\tsmlal\tr0, r1, r2, r3"]),
+        // The power of two is overwritten before the multiply.
+        asm(&[
+            "  8a:\tmovs\tr3, #4",
+            "  8c:\tadds\tr3, r3, r4",
+            "  92:\tmuls\tr2, r3",
+        ]),
+        // The power of two is in an accumulator, not a factor.
+        asm(&["  8e:\tmov.w\tr0, #4", "  92:\tsmlal\tr0, r1, r2, r3"]),
+        // A helper call.
+        asm(&["  8e:\tmovs\tr2, #4", "  92:\tbl\t0 <__aeabi_lmul>"]),
+    ] {
+        let last = bad.len() - 1;
+        assert!(!by_power_of_two(&bad, last), "{bad:?}");
     }
 }

@@ -14,7 +14,7 @@
 use qloop::interp::step_fixed;
 use qloop::ir::{SigId, SigKind};
 use qloop::{Plan, Target};
-use qloop_tests::c_harness::run_stdin;
+use qloop_tests::c_harness::{field, run_stdin};
 use qloop_tests::cases::{cases, Case};
 use qloop_tests::random_spec::{legitimate_refusal, run_seed, sample};
 use qloop_tests::{all_specs, claim_corpus, corpus_expectation, run, tool};
@@ -41,25 +41,37 @@ fn rust_main(plans: &[Plan]) -> String {
     o.push_str("fn run(k: usize, s: &[i64], i: &[i64]) -> (Vec<i64>, Vec<i64>) {\n    match k {\n");
     for (k, p) in plans.iter().enumerate() {
         let m = &p.prog.name;
-        let fields: String = ids(p, SigKind::State)
+        let states = ids(p, SigKind::State);
+        // Each state's field of `States`: `x`, or the element `theta[1]`, `P[1][0]` of a
+        // vector or matrix (row-major, the order of `state_bits`).
+        let fields: String = states
             .iter()
             .enumerate()
             .map(|(j, id)| {
                 let q = p.format(*id);
+                let sig = p.prog.sig(*id);
+                let field = match &sig.elem {
+                    None => sig.name.clone(),
+                    Some(e) => e
+                        .index
+                        .iter()
+                        .fold(e.group.clone(), |f, i| format!("{f}[{i}]")),
+                };
                 format!(
-                    "{}: <{}>::from_bits(s[{j}] as {}), ",
-                    p.prog.sig(*id).name,
+                    "            st.{field} = <{}>::from_bits(s[{j}] as {});\n",
                     qloop::emit::rust::fixed_ty(q),
                     q.ty.rust_name()
                 )
             })
             .collect();
+        let st_mut = if states.is_empty() { "" } else { "mut " };
         let ni = ids(p, SigKind::Input).len();
         let inputs: String = (0..ni).map(|j| format!("i[{j}], ")).collect();
         let _ = writeln!(
             o,
             "        {k} => {{\n            let mut c = {m}::Controller::new();\n            \
-             c.set_states({m}::States {{ {fields} }});\n            \
+             let {st_mut}st = {m}::States::default();\n{fields}            \
+             c.set_states(st);\n            \
              let out = c.step_bits([{inputs}]);\n            \
              (out.to_vec(), c.state_bits().to_vec())\n        }}"
         );
@@ -90,7 +102,6 @@ fn c_main(plans: &[Plan]) -> String {
         o.push_str(&qloop::emit::c::single_unit(p));
         o.push('\n');
     }
-    let c = qloop::emit::c::ident;
     for (k, p) in plans.iter().enumerate() {
         let n = &p.prog.name;
         let _ = writeln!(
@@ -102,7 +113,7 @@ fn c_main(plans: &[Plan]) -> String {
             let _ = writeln!(
                 o,
                 "    if (scanf(\"%lld\", &v) != 1) return 1;\n    st.{} = ({})v;",
-                c(&p.prog.sig(id).name),
+                field(p, id),
                 qloop::emit::c::c_ty(p.format(id).ty)
             );
         }
@@ -114,18 +125,18 @@ fn c_main(plans: &[Plan]) -> String {
             let _ = writeln!(
                 o,
                 "    if (scanf(\"%lld\", &v) != 1) return 1;\n    in.{} = ({})v;",
-                c(&p.prog.sig(id).name),
+                field(p, id),
                 qloop::emit::c::c_ty(p.format(id).ty)
             );
         }
         let _ = writeln!(o, "    {n}_step(&st, &in, &out);\n    (void)v;");
         let outs: Vec<String> = ids(p, SigKind::Output)
             .iter()
-            .map(|id| format!("(long long)out.{}", c(&p.prog.sig(*id).name)))
+            .map(|id| format!("(long long)out.{}", field(p, *id)))
             .collect();
         let sts: Vec<String> = ids(p, SigKind::State)
             .iter()
-            .map(|id| format!("(long long)st.{}", c(&p.prog.sig(*id).name)))
+            .map(|id| format!("(long long)st.{}", field(p, *id)))
             .collect();
         let fmt = |n: usize| vec!["%lld"; n].join(" ");
         let args: Vec<String> = outs.iter().chain(&sts).cloned().collect();

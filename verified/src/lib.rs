@@ -8,6 +8,9 @@
 //!   (004_9e0133852f31a0cf.txt eqs. 3, 5, 8).
 //! * [`milling_acc`]: the same 1981 adaptive ACC retuned for the milling process of
 //!   003_780323f84df40eb0.txt (eqs. 1-3; T = 0.0839 s, F_r = 1.2 kN).
+//! * [`gac_surface_finish`]: geometric adaptive control of the surface finish, one step per
+//!   part: recursive least squares of 002_39e44efc2e4f2eb6.txt eq. 29 and a Newton step on
+//!   the feed, both division-free (`newton_recip`).
 //!
 //! The `*_ref` modules are the f64 reference controllers compiled from the same specs.
 //!
@@ -27,3 +30,9 @@ qloop_macros::controller!("specs/milling_acc.qloop", kani);
 qloop_macros::controller!("specs/grinding_pi.qloop");
 qloop_macros::controller!("specs/grinding_pi.qloop", reference);
 qloop_macros::controller!("specs/grinding_pi.qloop", kani);
+qloop_macros::controller!("specs/grinding_adaptive_pzc.qloop");
+qloop_macros::controller!("specs/grinding_adaptive_pzc.qloop", reference);
+qloop_macros::controller!("specs/grinding_adaptive_pzc.qloop", kani);
+qloop_macros::controller!("specs/gac_surface_finish.qloop");
+qloop_macros::controller!("specs/gac_surface_finish.qloop", reference);
+qloop_macros::controller!("specs/gac_surface_finish.qloop", kani);

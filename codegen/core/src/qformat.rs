@@ -36,7 +36,8 @@ impl IntTy {
     /// Smallest representable raw value.
     pub fn min(self) -> i128 {
         if self.signed {
-            -(1i128 << (self.bits - 1))
+            // An arithmetic shift: also right for 128 bits, where −2^127 has no positive twin.
+            i128::MIN >> (128 - self.bits)
         } else {
             0
         }
@@ -45,7 +46,10 @@ impl IntTy {
     /// Largest representable raw value.
     pub fn max(self) -> i128 {
         if self.signed {
-            (1i128 << (self.bits - 1)) - 1
+            i128::MAX >> (128 - self.bits)
+        } else if self.bits >= 127 {
+            // u128 and u127 saturate to the largest i128.
+            i128::MAX
         } else {
             (1i128 << self.bits) - 1
         }

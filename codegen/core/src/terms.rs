@@ -17,6 +17,7 @@ use crate::lower::lir::{LStmt, Op, ValId};
 use crate::lower::Plan;
 use crate::prop_eval::{self, Arith, ExactDomain};
 use std::collections::{BTreeMap, HashMap};
+use std::hash::{Hash, Hasher};
 use std::rc::Rc;
 
 /// The exact-term variable of an input (`in_<name>`).
@@ -30,7 +31,12 @@ pub fn pre_var(prog: &Program, id: SigId) -> String {
 }
 
 /// An exact integer term.
-#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+///
+/// Terms are DAGs (a post-state shares its pre-state subterms), so [`Hash`] reads only the
+/// top six levels (`HASH_DEPTH`): a full hash would walk the DAG as a tree, exponential in its
+/// depth (a recursive least-squares update through two Newton steps never finished hashing).
+/// Equal terms still hash equally; `Eq` decides.
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum T {
     /// A declared variable: name, SMT width, signedness, and its assumed raw range.
     Var(String, u32, bool, i128, i128),
@@ -106,8 +112,8 @@ fn from_lin((m, c): Lin) -> Rc<T> {
     }
 }
 
-/// An exact boolean term.
-#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+/// An exact boolean term (hashed to a bounded depth, as [`T`]).
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum B {
     /// Comparison.
     Cmp(CmpOp, Rc<T>, Rc<T>),
@@ -117,6 +123,76 @@ pub enum B {
     Or(Rc<B>, Rc<B>),
     /// Negation.
     Not(Rc<B>),
+}
+
+/// How many levels of a term its hash reads.
+const HASH_DEPTH: u32 = 6;
+
+impl Hash for T {
+    fn hash<H: Hasher>(&self, h: &mut H) {
+        self.hash_to(h, HASH_DEPTH);
+    }
+}
+
+impl Hash for B {
+    fn hash<H: Hasher>(&self, h: &mut H) {
+        self.hash_to(h, HASH_DEPTH);
+    }
+}
+
+impl T {
+    /// Hashes the top `depth` levels of the term.
+    fn hash_to<H: Hasher>(&self, h: &mut H, depth: u32) {
+        std::mem::discriminant(self).hash(h);
+        match self {
+            T::Var(name, w, s, lo, hi) => (name, w, s, lo, hi).hash(h),
+            T::Const(c) => c.hash(h),
+            _ if depth == 0 => {}
+            T::Add(a, b) | T::Sub(a, b) | T::Mul(a, b) => {
+                a.hash_to(h, depth - 1);
+                b.hash_to(h, depth - 1);
+            }
+            T::Neg(a) => a.hash_to(h, depth - 1),
+            T::Shl(a, k) | T::Shr(a, k) => {
+                k.hash(h);
+                a.hash_to(h, depth - 1);
+            }
+            T::Ite(c, a, b) => {
+                c.hash_to(h, depth - 1);
+                a.hash_to(h, depth - 1);
+                b.hash_to(h, depth - 1);
+            }
+            T::Sum(terms, c) => {
+                (terms.len(), c).hash(h);
+                for (k, a) in terms {
+                    k.hash(h);
+                    a.hash_to(h, depth - 1);
+                }
+            }
+        }
+    }
+}
+
+impl B {
+    /// Hashes the top `depth` levels of the term.
+    fn hash_to<H: Hasher>(&self, h: &mut H, depth: u32) {
+        std::mem::discriminant(self).hash(h);
+        if depth == 0 {
+            return;
+        }
+        match self {
+            B::Cmp(op, a, b) => {
+                std::mem::discriminant(op).hash(h);
+                a.hash_to(h, depth - 1);
+                b.hash_to(h, depth - 1);
+            }
+            B::And(a, b) | B::Or(a, b) => {
+                a.hash_to(h, depth - 1);
+                b.hash_to(h, depth - 1);
+            }
+            B::Not(a) => a.hash_to(h, depth - 1),
+        }
+    }
 }
 
 /// `a + b` in linear normal form.
@@ -496,45 +572,69 @@ impl ExactDomain for &PropTerms<'_> {
 
 /// Interval arithmetic over terms, memoised: the raw interval of every term from its
 /// variables' assumed ranges. Sound for exact integers: every value a term takes, for
-/// variables inside their ranges, lies in its interval.
+/// variables inside their ranges, lies in its interval. Where a bound does not fit an `i128`
+/// the interval is all of `i128` and [`Ranges::overflowed`] says so: an encoding sized from
+/// these intervals must then not be used (its widths would wrap).
 #[derive(Default)]
 pub struct Ranges {
     memo: HashMap<Rc<T>, (i128, i128)>,
+    overflow: bool,
 }
 
 impl Ranges {
+    /// Whether some interval computed so far did not fit an `i128`.
+    pub fn overflowed(&self) -> bool {
+        self.overflow
+    }
+
     /// The raw interval of a term.
     pub fn of(&mut self, t: &Rc<T>) -> (i128, i128) {
         if let Some(r) = self.memo.get(t) {
             return *r;
         }
-        let r = match &**t {
+        let r = self.compute(t).unwrap_or_else(|| {
+            self.overflow = true;
+            (i128::MIN, i128::MAX)
+        });
+        self.memo.insert(t.clone(), r);
+        r
+    }
+
+    /// The interval of `t` from its operands' intervals, or `None` where a bound overflows.
+    fn compute(&mut self, t: &Rc<T>) -> Option<(i128, i128)> {
+        let shl = |v: i128, k: u32| v.checked_mul(1i128.checked_shl(k)?);
+        Some(match &**t {
             T::Var(_, _, _, lo, hi) => (*lo, *hi),
             T::Const(c) => (*c, *c),
             T::Add(a, b) => {
                 let (x, y) = (self.of(a), self.of(b));
-                (x.0 + y.0, x.1 + y.1)
+                (x.0.checked_add(y.0)?, x.1.checked_add(y.1)?)
             }
             T::Sub(a, b) => {
                 let (x, y) = (self.of(a), self.of(b));
-                (x.0 - y.1, x.1 - y.0)
+                (x.0.checked_sub(y.1)?, x.1.checked_sub(y.0)?)
             }
             T::Neg(a) => {
                 let x = self.of(a);
-                (-x.1, -x.0)
+                (x.1.checked_neg()?, x.0.checked_neg()?)
             }
             T::Mul(a, b) => {
                 let (x, y) = (self.of(a), self.of(b));
-                let c = [x.0 * y.0, x.0 * y.1, x.1 * y.0, x.1 * y.1];
-                (*c.iter().min().unwrap_or(&0), *c.iter().max().unwrap_or(&0))
+                let c = [
+                    x.0.checked_mul(y.0)?,
+                    x.0.checked_mul(y.1)?,
+                    x.1.checked_mul(y.0)?,
+                    x.1.checked_mul(y.1)?,
+                ];
+                (*c.iter().min()?, *c.iter().max()?)
             }
             T::Shl(a, k) => {
                 let x = self.of(a);
-                (x.0 << k, x.1 << k)
+                (shl(x.0, *k)?, shl(x.1, *k)?)
             }
             T::Shr(a, k) => {
                 let x = self.of(a);
-                (x.0 >> k, x.1 >> k)
+                (x.0 >> k.min(&127), x.1 >> k.min(&127))
             }
             T::Ite(_, a, b) => {
                 let (x, y) = (self.of(a), self.of(b));
@@ -544,15 +644,13 @@ impl Ranges {
                 let (mut lo, mut hi) = (*c, *c);
                 for (k, a) in terms {
                     let (x, y) = self.of(a);
-                    let (p, q) = (k * x, k * y);
-                    lo += p.min(q);
-                    hi += p.max(q);
+                    let (p, q) = (k.checked_mul(x)?, k.checked_mul(y)?);
+                    lo = lo.checked_add(p.min(q))?;
+                    hi = hi.checked_add(p.max(q))?;
                 }
                 (lo, hi)
             }
-        };
-        self.memo.insert(t.clone(), r);
-        r
+        })
     }
 }
 

@@ -104,12 +104,13 @@ pub enum Cmd {
     Sim {
         /// The spec file (*.qloop).
         spec: PathBuf,
-        /// The plant: turning, milling or grinding.
+        /// The plant: turning, milling, grinding or finishing.
         #[arg(long, default_value = "turning")]
         plant: String,
-        /// A built-in scenario of the plant, or a scenario TOML file.
-        #[arg(long, default_value = "depth-steps")]
-        scenario: String,
+        /// A built-in scenario of the plant, or a scenario TOML file. Default: the plant's
+        /// first built-in scenario (turning: depth-steps).
+        #[arg(long)]
+        scenario: Option<String>,
         /// Output directory.
         #[arg(long, default_value = "qloop-sim")]
         out: PathBuf,
@@ -132,7 +133,7 @@ pub enum Cmd {
     Sweep {
         /// The spec file (*.qloop).
         spec: PathBuf,
-        /// The plant: turning, milling or grinding.
+        /// The plant: turning, milling, grinding or finishing.
         #[arg(long, default_value = "turning")]
         plant: String,
         /// Scenarios to draw from (built-in names or TOML files; repeatable). Default: every

@@ -44,13 +44,21 @@ pub struct SimResult {
 /// `qloop sim SPEC`: loads the spec for `target`, runs it on `plant` in `scenario`, writes
 /// into `out` and prints the summary and the files written.
 /// With `check`, a run that is unstable or does not settle is an error (exit status 1).
+/// Without a scenario, the plant's first built-in one.
 pub fn run(
     spec: &Path,
     target: &str,
-    (plant, scenario): (&str, &str),
+    (plant, scenario): (&str, Option<&str>),
     out: &Path,
     (substeps, nominal, check): (usize, Option<f64>, bool),
 ) -> CliResult {
+    let first = catalog::scenarios_of(plant).into_iter().next();
+    let scenario = match (scenario, &first) {
+        (Some(s), _) => s,
+        (None, Some(s)) => s.name.as_str(),
+        // An unknown plant: let the catalog name the known ones.
+        (None, None) => "",
+    };
     let (plan, _) = load(spec, target)?;
     let r = sim(&SimArgs {
         plan: &plan,

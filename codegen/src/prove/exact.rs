@@ -61,6 +61,9 @@ pub struct Emitter {
     pub keep: Vec<String>,
     /// Premises of abstracted products (ranges, envelopes).
     pub premises: Vec<String>,
+    /// Whether a product envelope's or a sum's bound did not fit an `i128` (see
+    /// [`Emitter::overflowed`]).
+    envelope_overflow: bool,
 }
 
 impl Emitter {
@@ -76,6 +79,12 @@ impl Emitter {
     /// The raw interval of a term.
     pub fn range(&mut self, t: &Rc<T>) -> (i128, i128) {
         self.ranges.of(t)
+    }
+
+    /// Whether some term's interval (or a product envelope's bound) did not fit an `i128`:
+    /// then the widths of this encoding may wrap, and it must not be used.
+    pub fn overflowed(&self) -> bool {
+        self.ranges.overflowed() || self.envelope_overflow
     }
 
     /// Declarations of the variables used so far.
@@ -189,8 +198,15 @@ impl Emitter {
     /// sound.
     fn envelope(&mut self, p: &str, w: u32, a: &Rc<T>, b: &Rc<T>) {
         let ((al, ah), (bl, bh)) = (self.range(a), self.range(b));
-        let big = |l: i128, h: i128| l.abs().max(h.abs());
-        let m = 3 * big(al, ah) * big(bl, bh) + 1;
+        let big =
+            |l: i128, h: i128| -> Option<i128> { Some(l.checked_abs()?.max(h.checked_abs()?)) };
+        let m = big(al, ah)
+            .zip(big(bl, bh))
+            .and_then(|(x, y): (i128, i128)| x.checked_mul(y)?.checked_mul(3)?.checked_add(1));
+        let Some(m) = m else {
+            self.envelope_overflow = true;
+            return;
+        };
         let (pw, w) = (w, w.max(signed_bits(-m, m)));
         let p = match self.sort {
             Sort::BitVec => resize(p, pw, w, true),
@@ -289,8 +305,15 @@ impl Emitter {
                 let mut w = own;
                 for (k, a) in terms {
                     let (x, y) = self.range(a);
+                    let (p, q) = match (k.checked_mul(x), k.checked_mul(y)) {
+                        (Some(p), Some(q)) => (p, q),
+                        _ => {
+                            self.envelope_overflow = true;
+                            (i128::MIN, i128::MAX)
+                        }
+                    };
                     w = w
-                        .max(signed_bits((k * x).min(k * y), (k * x).max(k * y)))
+                        .max(signed_bits(p.min(q), p.max(q)))
                         .max(self.term(a).1 + 1);
                 }
                 let mut acc = lit(*c, w);

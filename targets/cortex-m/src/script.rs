@@ -12,7 +12,10 @@
 
 use core::fmt::{self, Write};
 
-use qloop_verified::{acc_fixed_gain, grinding_pi, koren_masory_1981, milling_acc};
+use qloop_verified::{
+    acc_fixed_gain, gac_surface_finish, grinding_adaptive_pzc, grinding_pi, koren_masory_1981,
+    milling_acc,
+};
 
 /// Steps per controller.
 pub const STEPS: usize = 360;
@@ -110,9 +113,9 @@ fn force(k: usize, rng: &mut XorShift64, gains: &[i64; 3], out: i64, out_frac: u
     }
 }
 
-/// Inputs of the grinding controller (`f`, `fr`: Q(i32, 16) newtons; f in [0, 100] N,
-/// fr in [0, 50] N); `xd` (Q(i32, 27) mm) is its last output.
-fn grinding(k: usize, rng: &mut XorShift64, xd: i64) -> [i64; 2] {
+/// Inputs of the grinding controllers (`f`, `fr`: Q(i32, 16) newtons; f in [0, 100] N,
+/// fr in [0, 50] N); `xd` (Q(i32, `xd_frac`) mm, `grinding_pi` 27) is their last output.
+fn grinding(k: usize, rng: &mut XorShift64, xd: i64, xd_frac: i32) -> [i64; 2] {
     const N: i64 = 1 << 16;
     const EDGES: [[i64; 2]; 16] = [
         [0, 0],
@@ -138,8 +141,8 @@ fn grinding(k: usize, rng: &mut XorShift64, xd: i64) -> [i64; 2] {
         // Contact stiffness 100 N/mm beyond 0.5 mm; the reference steps 10 → 30 → 20 N.
         _ if k < LOOP_END => {
             let fr = [10 * N, 30 * N, 20 * N][(k - AIR_END) / SEGMENT];
-            let contact = 1 << 26; // 0.5 mm in Q27
-            let f = (100 * (xd - contact)).max(0) >> 11; // Q27 mm · N/mm → Q16 N
+            let contact = 1 << (xd_frac - 1); // 0.5 mm
+            let f = (100 * (xd - contact)).max(0) >> (xd_frac - 16); // mm · N/mm → Q16 N
             [f + rng.noise(N as u32 / 4), fr]
         }
         _ if k < RAMP_END => [(k - LOOP_END) as i64 * 110 * N / 64, 25 * N],
@@ -225,7 +228,75 @@ fn milling(k: usize, rng: &mut XorShift64, feed: [i64; 1]) -> [i64; 1] {
 
 /// Grinding: see [`grinding`].
 fn grinding_pi(k: usize, rng: &mut XorShift64, xd: [i64; 1]) -> [i64; 2] {
-    grinding(k, rng, xd[0])
+    grinding(k, rng, xd[0], grinding_pi::OUTPUT_FRAC[0])
+}
+
+/// Grinding, the adaptive controller: see [`grinding`].
+fn grinding_adaptive(k: usize, rng: &mut XorShift64, xd: [i64; 1]) -> [i64; 2] {
+    grinding(k, rng, xd[0], grinding_adaptive_pzc::OUTPUT_FRAC[0])
+}
+
+/// `v·2^by`, by shifts.
+fn shift(v: i64, by: i32) -> i64 {
+    if by >= 0 {
+        v << by
+    } else {
+        v >> -by
+    }
+}
+
+/// Inputs of the surface-finish controller (`ra`, `ra_req`: µm in the module's `INPUT_FRAC`;
+/// ra in [0, 8], ra_req in [0.5, 4]); `feed` (mm/rev in its `OUTPUT_FRAC`) is its last output,
+/// the feed of the part whose roughness the next step reads.
+fn finishing(k: usize, rng: &mut XorShift64, feed: [i64; 1]) -> [i64; 2] {
+    let [fa, fb] = gac_surface_finish::INPUT_FRAC;
+    // Values in sixteenths of a µm, in each input's format.
+    let ra = |v: i64| shift(v, fa - 4);
+    let req = |v: i64| shift(v, fb - 4);
+    let below = |rng: &mut XorShift64, n: i64| rng.below(n.clamp(1, u32::MAX as i64) as u32);
+    let edges: [[i64; 2]; 16] = [
+        [0, 0],
+        [-1, 0],
+        [0, -1],
+        [ra(1), req(24)],          // Ra at RA_VALID = 1/16 µm; Ra_req 1.5 µm
+        [ra(1) + 1, req(24)],      // one LSB above it
+        [ra(128), req(64)],        // 8 µm, 4 µm: the range ends
+        [ra(128) + 1, req(8) - 1], // one LSB beyond both
+        [ra(128), req(8)],
+        [ra(24), req(24)], // on target
+        [ra(24) + 1, req(24)],
+        [i32::MAX as i64, 0],
+        [0, i32::MAX as i64],
+        [i32::MIN as i64, i32::MAX as i64],
+        [i32::MAX as i64 + 1, i32::MIN as i64 - 1],
+        [i64::MAX, i64::MIN],
+        [i64::MIN, i64::MAX],
+    ];
+    match k {
+        // No part finished yet: the profilometer reads below RA_VALID.
+        _ if k < AIR_END => [below(rng, ra(1)), req(24)],
+        // Parts cut at the controller's feed: Ra = g·(c1·f + c2·f²) (eq. 29 with the spec's
+        // initial model, c1 = 2 µm/(mm/rev), c2 = 20 µm/(mm/rev)²), the tool's wear g stepping
+        // 1 → 1.5 → 2, plus profilometer noise of 1/256 µm; Ra_req = 1.5 µm.
+        _ if k < LOOP_END => {
+            let g = [16, 24, 32][(k - AIR_END) / SEGMENT]; // Q4
+            let f16 = shift(feed[0], 16 - gac_surface_finish::OUTPUT_FRAC[0]); // mm/rev, Q16
+            let ra32 = ((2 * f16) << 16) + 20 * f16 * f16; // µm, Q32
+            let noise = (ra(1) >> 4).clamp(1, i64::from(u32::MAX / 2)) as u32;
+            [shift(g * ra32, fa - 36) + rng.noise(noise), req(24)]
+        }
+        // Ramp of Ra from 0 to 8.8 µm, Ra_req 2 µm.
+        _ if k < RAMP_END => [shift((k - LOOP_END) as i64 * 141, fa - 10), req(32)],
+        _ if k < EDGE_END => edges[(k - RAMP_END) / 2],
+        _ => match rng.below(8) {
+            0 => [rng.next() as i32 as i64, rng.next() as i32 as i64],
+            1 => [rng.next() as i64, rng.next() as i64],
+            _ => [
+                below(rng, ra(128) + 1),
+                req(8) + below(rng, req(64) - req(8) + 1),
+            ],
+        },
+    }
 }
 
 /// Prints the whole script to `w`; `meter` times the steps.
@@ -240,9 +311,11 @@ pub fn run(w: &mut impl Write, meter: &mut impl Meter) -> fmt::Result {
     drive!(run, "accfix", acc_fixed_gain, turning);
     drive!(run, "millacc", milling_acc, milling);
     drive!(run, "grindpi", grinding_pi, grinding_pi);
+    drive!(run, "grindpzc", grinding_adaptive_pzc, grinding_adaptive);
+    drive!(run, "gacfin", gac_surface_finish, finishing);
     writeln!(
         run.w,
-        "qloop-cortex-m done controllers=4 fnv={:016x}",
+        "qloop-cortex-m done controllers=6 fnv={:016x}",
         run.total.0
     )
 }

@@ -325,6 +325,16 @@ pub fn measure(tokens: &TokenStream) -> Result<(usize, usize)> {
         };
         let span = tt.span();
         match &tt {
+            // An attribute (`#[q(..)]`, or a doc comment's `#[doc = ".."]`) is no operator
+            // of the statement it precedes: skip it whole, so that a long doc comment does
+            // not count as a long expression.
+            TokenTree::Punct(p) if p.as_char() == '#' => {
+                if let Some(TokenTree::Group(g)) = top.tokens.as_slice().first() {
+                    if g.delimiter() == Delimiter::Bracket {
+                        top.tokens.next();
+                    }
+                }
+            }
             TokenTree::Punct(p) if matches!(p.as_char(), ';' | ',') => {
                 top.ops = 0;
                 top.prefix = 0;

@@ -141,6 +141,10 @@ pub(super) fn exact_query(
         _ => goal(&pre_env)?,
     };
     let goal = em.boolean(&g);
+    // Widths sized from intervals that did not fit an i128 could wrap: no such encoding.
+    if em.overflowed() {
+        return None;
+    }
     Some(finish(em, premises, &goal))
 }
 

@@ -176,12 +176,35 @@ fn global_val_query(step: &Step, id: ValId) -> Query {
     let goal = step
         .paths
         .guard(id, in_range(&resize(&t, w, w2, true), w2, v.lo, v.hi));
-    let mut premises = step.state_premises();
-    premises.extend(step.lemmas(&step.cone.val[id.0], Some(id)));
+    let premises = match pre_state_load(step, id) {
+        // A load of a state not yet stored in this step is the pre-state itself, and its
+        // interval holds the state's range: that premise alone proves it. The other
+        // premises (invariants, lemmas with wide products) only slow the solver down.
+        Some(sig) => vec![super::step::state_bound(
+            plan,
+            sig,
+            &smt::pre_var(&plan.prog, sig),
+        )],
+        None => {
+            let mut p = step.state_premises();
+            p.extend(step.lemmas(&step.cone.val[id.0], Some(id)));
+            p
+        }
+    };
     Query {
         script: script(&step.enc.text, &premises, &goal),
         want: step.want.clone(),
     }
+}
+
+/// The state that value `id` loads, when it is the pre-state itself (no store before it in
+/// the step, so its cone is only itself) and its interval holds the state's range.
+fn pre_state_load(step: &Step, id: ValId) -> Option<crate::ir::SigId> {
+    let v = step.plan.val(id);
+    let Op::Load(sig) = v.op else { return None };
+    let (lo, hi) = step.plan.bounds(sig);
+    let alone = step.cone.val[id.0].len() == 1;
+    (alone && v.lo <= lo && hi <= v.hi).then_some(sig)
 }
 
 /// The whole-program overflow obligation of one value (used when a local query is refuted,

@@ -100,7 +100,14 @@ fn direct_query(step: &Step, k: usize, witness: bool) -> Option<Query> {
     for c in p.assumes.iter().chain(&p.ensures) {
         c.post_signals(&mut sigs, false);
     }
-    let needed = step.cone.post_of(&sigs);
+    // A witness needs no lemmas: each holds in every state the premises allow (it is proved
+    // from the state ranges and invariants alone), so it cannot change whether the premises
+    // are satisfiable, and its wide products only slow the search for a model.
+    let needed = if witness {
+        BTreeSet::new()
+    } else {
+        step.cone.post_of(&sigs)
+    };
     let mut want = step.want.clone();
     want.extend(grids.iter().map(|g| g.var.clone()));
     let mut decls = String::new();

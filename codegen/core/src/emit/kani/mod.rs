@@ -122,7 +122,7 @@ pub fn module(plan: &Plan) -> TokenStream {
     quote! {
         #[doc = #doc_s]
         #[cfg(test)]
-        #[allow(#allows, dead_code, unused_variables)]
+        #[allow(#allows, dead_code, unused_variables, clippy::too_many_arguments)]
         pub mod #modname {
             extern crate std;
 
