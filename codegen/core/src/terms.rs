@@ -16,6 +16,7 @@ use crate::ir::{CmpOp, PCond, PExpr, Program, SigId, SigKind, When};
 use crate::lower::lir::{LStmt, Op, ValId};
 use crate::lower::Plan;
 use crate::prop_eval::{self, Arith, ExactDomain};
+use std::cmp::Ordering;
 use std::collections::{BTreeMap, HashMap};
 use std::hash::{Hash, Hasher};
 use std::rc::Rc;
@@ -35,8 +36,9 @@ pub fn pre_var(prog: &Program, id: SigId) -> String {
 /// Terms are DAGs (a post-state shares its pre-state subterms), so [`Hash`] reads only the
 /// top six levels (`HASH_DEPTH`): a full hash would walk the DAG as a tree, exponential in its
 /// depth (a recursive least-squares update through two Newton steps never finished hashing).
-/// Equal terms still hash equally; `Eq` decides.
-#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
+/// Equal terms still hash equally; `Eq` decides. For the same reason the order ([`Ord`], the
+/// derived one's) answers `Equal` at once for two references to one node.
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub enum T {
     /// A declared variable: name, SMT width, signedness, and its assumed raw range.
     Var(String, u32, bool, i128, i128),
@@ -112,8 +114,8 @@ fn from_lin((m, c): Lin) -> Rc<T> {
     }
 }
 
-/// An exact boolean term (hashed to a bounded depth, as [`T`]).
-#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
+/// An exact boolean term (hashed to a bounded depth and ordered with shared nodes, as [`T`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub enum B {
     /// Comparison.
     Cmp(CmpOp, Rc<T>, Rc<T>),
@@ -123,6 +125,111 @@ pub enum B {
     Or(Rc<B>, Rc<B>),
     /// Negation.
     Not(Rc<B>),
+}
+
+/// `a` against `b`, `Equal` at once when they are one node.
+fn rc_cmp<X: Ord>(a: &Rc<X>, b: &Rc<X>) -> Ordering {
+    if Rc::ptr_eq(a, b) {
+        Ordering::Equal
+    } else {
+        (**a).cmp(&**b)
+    }
+}
+
+impl T {
+    /// The variant's position in the declaration (the derived order's first key).
+    fn rank(&self) -> u8 {
+        match self {
+            T::Var(..) => 0,
+            T::Const(_) => 1,
+            T::Add(..) => 2,
+            T::Sub(..) => 3,
+            T::Neg(_) => 4,
+            T::Mul(..) => 5,
+            T::Shl(..) => 6,
+            T::Shr(..) => 7,
+            T::Ite(..) => 8,
+            T::Sum(..) => 9,
+        }
+    }
+}
+
+impl PartialOrd for T {
+    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
+        Some(self.cmp(o))
+    }
+}
+
+/// The order `#[derive(Ord)]` would give (variant, then fields in order, sequences
+/// lexicographically), with shared nodes compared by address first.
+impl Ord for T {
+    fn cmp(&self, o: &Self) -> Ordering {
+        if std::ptr::eq(self, o) {
+            return Ordering::Equal;
+        }
+        match (self, o) {
+            (T::Var(n, w, s, l, h), T::Var(n2, w2, s2, l2, h2)) => {
+                (n, w, s, l, h).cmp(&(n2, w2, s2, l2, h2))
+            }
+            (T::Const(a), T::Const(b)) => a.cmp(b),
+            (T::Add(a, b), T::Add(a2, b2))
+            | (T::Sub(a, b), T::Sub(a2, b2))
+            | (T::Mul(a, b), T::Mul(a2, b2)) => rc_cmp(a, a2).then_with(|| rc_cmp(b, b2)),
+            (T::Neg(a), T::Neg(a2)) => rc_cmp(a, a2),
+            (T::Shl(a, k), T::Shl(a2, k2)) | (T::Shr(a, k), T::Shr(a2, k2)) => {
+                rc_cmp(a, a2).then_with(|| k.cmp(k2))
+            }
+            (T::Ite(c, a, b), T::Ite(c2, a2, b2)) => rc_cmp(c, c2)
+                .then_with(|| rc_cmp(a, a2))
+                .then_with(|| rc_cmp(b, b2)),
+            (T::Sum(v, c), T::Sum(v2, c2)) => v
+                .iter()
+                .zip(v2)
+                .map(|((k, a), (k2, a2))| k.cmp(k2).then_with(|| rc_cmp(a, a2)))
+                .find(|x| x.is_ne())
+                .unwrap_or_else(|| v.len().cmp(&v2.len()))
+                .then_with(|| c.cmp(c2)),
+            _ => self.rank().cmp(&o.rank()),
+        }
+    }
+}
+
+impl B {
+    /// The variant's position in the declaration.
+    fn rank(&self) -> u8 {
+        match self {
+            B::Cmp(..) => 0,
+            B::And(..) => 1,
+            B::Or(..) => 2,
+            B::Not(_) => 3,
+        }
+    }
+}
+
+impl PartialOrd for B {
+    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
+        Some(self.cmp(o))
+    }
+}
+
+/// As for [`T`]: the derived order, shared nodes first.
+impl Ord for B {
+    fn cmp(&self, o: &Self) -> Ordering {
+        if std::ptr::eq(self, o) {
+            return Ordering::Equal;
+        }
+        match (self, o) {
+            (B::Cmp(op, a, b), B::Cmp(op2, a2, b2)) => op
+                .cmp(op2)
+                .then_with(|| rc_cmp(a, a2))
+                .then_with(|| rc_cmp(b, b2)),
+            (B::And(a, b), B::And(a2, b2)) | (B::Or(a, b), B::Or(a2, b2)) => {
+                rc_cmp(a, a2).then_with(|| rc_cmp(b, b2))
+            }
+            (B::Not(a), B::Not(a2)) => rc_cmp(a, a2),
+            _ => self.rank().cmp(&o.rank()),
+        }
+    }
 }
 
 /// How many levels of a term its hash reads.
