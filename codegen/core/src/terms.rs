@@ -424,11 +424,38 @@ pub struct Terms {
     pub post: BTreeMap<SigId, Rc<T>>,
     /// Pre-step variable of each input and state.
     pub pre: BTreeMap<SigId, Rc<T>>,
+    /// The variables standing for cut values ([`terms_cut`]), each with its value's interval.
+    pub cuts: Vec<Rc<T>>,
 }
 
 /// Builds exact terms for the step. Inputs and states are variables ranging over
 /// `ranges[id]` (raw).
 pub fn terms(plan: &Plan, ranges: &dyn Fn(SigId) -> (i128, i128)) -> Terms {
+    terms_cut(plan, ranges, &|_| false)
+}
+
+/// The variable that stands for a cut value in [`terms_cut`]: `cut_<id>`.
+pub fn cut_var(id: ValId) -> String {
+    format!("cut_{}", id.0)
+}
+
+/// Exact terms of the step in which each value that `cut` selects (other than booleans,
+/// inputs, loads and constants) is a fresh variable ranging over the value's proved
+/// interval, not its definition: a cut point.
+///
+/// Sound as an over-approximation: on a path that computes the value, its interval holds
+/// (an overflow obligation of its own); on a path that does not, the value reaches no
+/// post-state (structured branches merge only what they store), so any value of its
+/// interval is as good as another. Every behaviour of the step is a behaviour of the cut
+/// terms; the converse may fail, so a counterexample must be replayed. What it buys: a
+/// product of two cut values stays one product of two variables, where the full terms
+/// multiply out whole sub-computations (the determinant of a least-squares covariance after
+/// its update) into polynomials beyond any solver, and beyond `i128` intervals.
+pub fn terms_cut(
+    plan: &Plan,
+    ranges: &dyn Fn(SigId) -> (i128, i128),
+    cut: &dyn Fn(ValId) -> bool,
+) -> Terms {
     let prog = &plan.prog;
     let mut pre = BTreeMap::new();
     let mut env: BTreeMap<SigId, Rc<T>> = BTreeMap::new();
@@ -459,16 +486,34 @@ pub fn terms(plan: &Plan, ranges: &dyn Fn(SigId) -> (i128, i128)) -> Terms {
         bools: vec![None; plan.vals.len()],
         post: BTreeMap::new(),
         pre,
+        cuts: Vec::new(),
     };
-    walk(plan, &plan.body, &mut env, &mut t);
+    walk(plan, &plan.body, &mut env, &mut t, cut);
     t.post = env;
     t
 }
 
-fn walk(plan: &Plan, stmts: &[LStmt], env: &mut BTreeMap<SigId, Rc<T>>, t: &mut Terms) {
+fn walk(
+    plan: &Plan,
+    stmts: &[LStmt],
+    env: &mut BTreeMap<SigId, Rc<T>>,
+    t: &mut Terms,
+    cut: &dyn Fn(ValId) -> bool,
+) {
     for s in stmts {
         match s {
-            LStmt::Def(id) => def(plan, *id, env, t),
+            LStmt::Def(id) => {
+                let v = plan.val(*id);
+                let cuttable =
+                    !v.boolean && !matches!(v.op, Op::Input(_) | Op::Load(_) | Op::Const(_));
+                if cuttable && cut(*id) {
+                    let x = Rc::new(T::Var(cut_var(*id), v.ty.bits, v.ty.signed, v.lo, v.hi));
+                    t.cuts.push(x.clone());
+                    t.vals[id.0] = Some(x);
+                } else {
+                    def(plan, *id, env, t);
+                }
+            }
             LStmt::Store(sig, id) => {
                 if let Some(v) = &t.vals[id.0] {
                     env.insert(*sig, v.clone());
@@ -476,9 +521,9 @@ fn walk(plan: &Plan, stmts: &[LStmt], env: &mut BTreeMap<SigId, Rc<T>>, t: &mut 
             }
             LStmt::If(c, a, b) => {
                 let mut ea = env.clone();
-                walk(plan, a, &mut ea, t);
+                walk(plan, a, &mut ea, t, cut);
                 let mut eb = env.clone();
-                walk(plan, b, &mut eb, t);
+                walk(plan, b, &mut eb, t, cut);
                 let cond = t.bools[c.0]
                     .clone()
                     .unwrap_or_else(|| Rc::new(B::Not(Rc::new(B::Cmp(CmpOp::Eq, zero(), zero())))));

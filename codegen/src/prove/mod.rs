@@ -11,6 +11,7 @@ pub mod obligations;
 pub mod replay;
 pub mod smt;
 pub mod solver;
+pub mod witness;
 
 use crate::lower::Plan;
 use obligations::{Goal, Kind, Obligation};
@@ -104,6 +105,9 @@ pub struct Report {
     pub jobs: usize,
     /// The runs that check each property's premises are satisfiable (not vacuous).
     pub witness_runs: Vec<Run>,
+    /// Properties whose premises a run of the plan met ([`witness::concrete`]), so that no
+    /// solver had to check them.
+    pub witnessed_by_run: usize,
 }
 
 impl Report {
@@ -142,8 +146,14 @@ pub fn prove_filtered(
     // One witness query per property under test (own group): its premises must be
     // satisfiable, or the property holds vacuously.
     let mut witnessed: Vec<usize> = Vec::new();
+    let mut witnessed_by_run = 0;
     for (k, w) in witnesses.into_iter().enumerate() {
         let tested = obs.iter().any(|o| o.goal == Goal::Property(k));
+        // A run of the plan that meets the premises settles it without a solver.
+        if tested && witness::concrete(plan, k).is_some() {
+            witnessed_by_run += 1;
+            continue;
+        }
         if let (true, Some(w)) = (tested, w) {
             witnessed.push(k);
             groups.push(queries.len());
@@ -182,7 +192,9 @@ pub fn prove_filtered(
             }
         }
     };
-    let mut runs = solver::run_all_grouped(&queries, &groups, cfg, &mut on_run, &mut confirm);
+    let small: Vec<bool> = obs.iter().map(Obligation::small).collect();
+    let mut runs =
+        solver::run_all_batched(&queries, &groups, &small, cfg, &mut on_run, &mut confirm);
     let witness_runs = runs.split_off(obs.len());
     let mut outcomes: Vec<Outcome> = obs
         .into_iter()
@@ -193,10 +205,18 @@ pub fn prove_filtered(
     // state. Ask the whole-program question for that value; only that can be replayed.
     for o in outcomes.iter_mut() {
         if let (Goal::Val { val, local: true }, Verdict::Unknown) = (&o.ob.goal, o.verdict) {
-            if o.runs.iter().any(|r| matches!(r.answer, Answer::Sat(_))) {
+            // The bit-vector query decides; a product's linear envelope is its shortcut.
+            if o.ob
+                .encoding
+                .is_none_or(|how| how == obligations::overflow::BIT_VECTOR)
+                && o.runs.iter().any(|r| matches!(r.answer, Answer::Sat(_)))
+            {
                 let g = obligations::global_for(plan, *val);
                 let runs = solver::run_all(std::slice::from_ref(&g.query), cfg, &mut |_, _| {});
                 let mut again = judge(plan, g, runs.into_iter().next().unwrap_or_default());
+                // Still one of the value's encodings, merged with the others below.
+                again.ob.encoding = o.ob.encoding;
+                again.ob.goal = o.ob.goal.clone();
                 again.note = Some(format!(
                     "local query refuted (analysis/encoding mismatch: a qloop bug); whole-program query: {}",
                     again.note.clone().unwrap_or_else(|| again.verdict.name().into())
@@ -236,6 +256,7 @@ parameter value meets the `assume`s, so the property says nothing; check its ass
         wall_ms: start.elapsed().as_millis() as u64,
         jobs: cfg.jobs.max(1),
         witness_runs: all_witness_runs,
+        witnessed_by_run,
     }
 }
 
@@ -681,12 +702,13 @@ Inputs are arbitrary bits (step clamps them), except in properties, which assume
         let wit_ms: u64 = self.witness_runs.iter().map(|r| r.millis).sum();
         let _ = writeln!(
             o,
-            "solver time: {} over {runs} runs and {} premise (vacuity) checks taking {:.2} s; \
-             {} parallel job(s), so the wall time is about the larger of the total over the jobs \
-             and the longest single run",
+            "solver time: {} over {runs} runs and {} premise (vacuity) checks taking {:.2} s \
+             ({} more met by a run of the plan); {} parallel job(s), so the wall time is about \
+             the larger of the total over the jobs and the longest single run",
             per.join(", "),
             self.witness_runs.len(),
             wit_ms as f64 / 1000.0,
+            self.witnessed_by_run,
             self.jobs
         );
         let mut slow: Vec<&Outcome> = self.outcomes.iter().collect();
@@ -801,6 +823,7 @@ mod tests {
             wall_ms: 10,
             jobs: 2,
             witness_runs: Vec::new(),
+            witnessed_by_run: 0,
         };
         assert!(!report.proved());
         let s = report.summary(&plan);

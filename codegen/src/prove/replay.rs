@@ -83,9 +83,11 @@ pub enum Replay {
 
 /// An exact rational `raw · 2^-frac`.
 #[derive(Clone, Debug)]
-struct Q {
-    raw: BigInt,
-    frac: i32,
+pub(super) struct Q {
+    /// The integer.
+    pub(super) raw: BigInt,
+    /// Its binary point.
+    pub(super) frac: i32,
 }
 
 impl Q {
@@ -114,11 +116,15 @@ fn constant(c: f64) -> Option<Q> {
 }
 
 /// Values a property reads, by signal and side.
-struct Frame<'a> {
-    plan: &'a Plan,
-    pre: &'a [i128],
-    post: &'a [i128],
-    params: &'a [Q],
+pub(super) struct Frame<'a> {
+    /// The plan.
+    pub(super) plan: &'a Plan,
+    /// Raw slots before the step (inputs and states).
+    pub(super) pre: &'a [i128],
+    /// Raw slots after the step (states and outputs).
+    pub(super) post: &'a [i128],
+    /// The free parameters' values.
+    pub(super) params: &'a [Q],
 }
 
 impl Frame<'_> {
@@ -170,7 +176,8 @@ impl Frame<'_> {
         })
     }
 
-    fn cond(&self, c: &PCond) -> Option<bool> {
+    /// The condition evaluated exactly; `None` where a constant is not a binary fraction.
+    pub(super) fn cond(&self, c: &PCond) -> Option<bool> {
         Some(match c {
             PCond::Cmp(op, a, b) => {
                 let o = Q::cmp(&self.expr(a)?, &self.expr(b)?);
@@ -239,6 +246,12 @@ pub fn replay(plan: &Plan, ob: &Obligation, cex: &Cex, initial: bool) -> Replay 
             _ => Replay::NotConfirmed("the initial state is inside its range".into()),
         };
     }
+    // The model must meet the query's premises: an over-approximate encoding (products as
+    // envelopes, cut points) can satisfy them in its own terms with a pre-state that breaks
+    // them in exact arithmetic, and a step from there proves nothing.
+    if let Some(why) = premise_broken(plan, ob, &pre) {
+        return Replay::NotConfirmed(why);
+    }
     let mut post = pre.clone();
     let run = step_fixed(plan, &mut post);
     if let Err(v) = &run {
@@ -288,10 +301,19 @@ pub fn replay(plan: &Plan, ob: &Obligation, cex: &Cex, initial: bool) -> Replay 
         }
         Goal::Property(k) => {
             let p = &prog.properties[*k];
-            let params: Vec<Q> = param_grids(plan, *k)
+            let grids = param_grids(plan, *k);
+            let raw = |g: &crate::prop_eval::ParamGrid| cex.get(&g.var).unwrap_or(0);
+            if let Some(g) = grids.iter().find(|g| !(g.lo..=g.hi).contains(&raw(g))) {
+                return Replay::NotConfirmed(format!(
+                    "the model's parameter {} = raw {} is outside its range (a spurious model)",
+                    g.var,
+                    raw(g)
+                ));
+            }
+            let params: Vec<Q> = grids
                 .iter()
                 .map(|g| Q {
-                    raw: BigInt::from(cex.get(&g.var).unwrap_or(0)),
+                    raw: BigInt::from(raw(g)),
                     frac: g.frac,
                 })
                 .collect();
@@ -325,6 +347,48 @@ pub fn replay(plan: &Plan, ob: &Obligation, cex: &Cex, initial: bool) -> Replay 
             }
         }
     }
+}
+
+/// Why the pre-step slots `pre` are not a state the query of `ob` quantifies over: a state
+/// outside its range, an invariant false, or (properties, which assume them) an input
+/// outside its range; `None` when they are one.
+fn premise_broken(plan: &Plan, ob: &Obligation, pre: &[i128]) -> Option<String> {
+    let prog = &plan.prog;
+    let outside = |id: SigId| {
+        let (lo, hi) = plan.bounds(id);
+        !(lo..=hi).contains(&pre[id.0])
+    };
+    if let Some(id) = prog.ids_of(SigKind::State).find(|&id| outside(id)) {
+        return Some(format!(
+            "the model's pre-state {} = raw {} is outside its range (a spurious model)",
+            prog.sig(id).name,
+            pre[id.0]
+        ));
+    }
+    let f = Frame {
+        plan,
+        pre,
+        post: pre,
+        params: &[],
+    };
+    for inv in &prog.invariants {
+        if f.cond(&inv.cond) != Some(true) {
+            return Some(format!(
+                "the model's pre-state does not satisfy invariant {} (a spurious model)",
+                inv.name
+            ));
+        }
+    }
+    if matches!(ob.goal, Goal::Property(_)) {
+        if let Some(id) = prog.ids_of(SigKind::Input).find(|&id| outside(id)) {
+            return Some(format!(
+                "the model's input {} = raw {} is outside its range (a spurious model)",
+                prog.sig(id).name,
+                pre[id.0]
+            ));
+        }
+    }
+    None
 }
 
 /// Physical-unit rendering of a counterexample.

@@ -1319,8 +1319,18 @@ impl<'a> Lowerer<'a> {
     }
 
     /// Variable × variable: a widening multiply, exact unless the product would exceed 64 bits.
+    /// Then the operand with more significant bits loses fraction bits, one at a time in the
+    /// count, until the product fits, and each operand is rounded once by its total (one
+    /// rounding each: a chain of one-bit roundings to nearest would round twice).
     fn mul(&mut self, a: ValId, b: ValId, span: Span, out: &mut Vec<LStmt>) -> Result<ValId> {
         let (mut a, mut b) = (a, b);
+        let (drop_a, drop_b) = self.bits_to_drop(a, b);
+        if drop_a > 0 {
+            a = self.round(a, drop_a, span, out)?;
+        }
+        if drop_b > 0 {
+            b = self.round(b, drop_b, span, out)?;
+        }
         loop {
             let (x, y) = (self.v(a).clone(), self.v(b).clone());
             let (lo, hi) = Bin::Mul.range((x.lo, x.hi), (y.lo, y.hi));
@@ -1356,6 +1366,36 @@ impl<'a> Lowerer<'a> {
                 a = self.round(a, 1, span, out)?;
             } else {
                 b = self.round(b, 1, span, out)?;
+            }
+        }
+    }
+}
+
+impl Lowerer<'_> {
+    /// How many fraction bits to drop from `a` and from `b` so that their product (and both
+    /// operands) fit a 64-bit working type: one bit at a time from the operand with more
+    /// significant bits (the search the multiply's own loop made, counted before rounding).
+    fn bits_to_drop(&self, a: ValId, b: ValId) -> (u32, u32) {
+        let (x, y) = (self.v(a), self.v(b));
+        let bits = |(lo, hi): (i128, i128)| 128 - lo.abs().max(hi.abs()).leading_zeros();
+        let (mut da, mut db) = (0u32, 0u32);
+        loop {
+            let xr = self.rounded(x.lo, x.hi, da);
+            let yr = self.rounded(y.lo, y.hi, db);
+            let (lo, hi) = Bin::Mul.range(xr, yr);
+            let (lo, hi) = (lo.min(xr.0).min(yr.0), hi.max(xr.1).max(yr.1));
+            if IntTy::signed_for(lo, hi, self.target.min_work_bits()).is_some() {
+                return (da, db);
+            }
+            let (bx, by) = (bits(xr), bits(yr));
+            if bx <= 1 && by <= 1 {
+                // Hopeless: the caller's loop reports it at the product.
+                return (da, db);
+            }
+            if bx >= by {
+                da += 1;
+            } else {
+                db += 1;
             }
         }
     }

@@ -5,6 +5,7 @@
 
 use super::ParamGrid;
 use crate::ir::{PCond, SigId, SigKind};
+use crate::lower::lir::{Op, ValId};
 use crate::lower::Plan;
 use crate::prove::exact::{self, PropTerms, B, T};
 use crate::prove::smt::signed_bits;
@@ -23,8 +24,39 @@ pub struct ExactEncoding {
     pub sort: exact::Sort,
     /// Exact or over-approximated products.
     pub products: exact::Products,
+    /// Which values are cut points (free in their intervals) rather than their definitions.
+    pub cuts: Cuts,
     /// Name in reports (`property P [label]`).
     pub label: &'static str,
+}
+
+/// Which values of the step a query replaces by cut points: variables ranging over the
+/// value's proved interval ([`qloop_core::terms::terms_cut`] for exact terms,
+/// [`super::step::Step::cut_query`] bit for bit). Sound because every interval is an overflow
+/// obligation of its own; a counterexample may be spurious and is replayed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Cuts {
+    /// No cut: every value is its definition.
+    None,
+    /// The values of the spec's `let`s: a property that relates a few named intermediate
+    /// results (the clamped covariance entries and the determinant test on them) is proved
+    /// over those names, whatever computed them.
+    Lets,
+    /// Every product of two variables: what saturation, clamps and branches decide (a state
+    /// stays in its range, a branch not taken holds the state) needs no multiplier.
+    Products,
+}
+
+impl Cuts {
+    /// Whether value `id` of `plan` is a cut point.
+    pub fn selects(self, plan: &Plan, id: ValId) -> bool {
+        let v = plan.val(id);
+        match self {
+            Cuts::None => false,
+            Cuts::Lets => v.name.is_some() && !matches!(v.op, Op::Input(_)),
+            Cuts::Products => matches!(v.op, Op::Mul(..)),
+        }
+    }
 }
 
 /// Linear integer arithmetic, products replaced by their linear envelopes: decided in
@@ -32,25 +64,41 @@ pub struct ExactEncoding {
 pub const LINEAR: ExactEncoding = ExactEncoding {
     sort: exact::Sort::Int,
     products: exact::Products::Relaxed,
+    cuts: Cuts::None,
     label: "linear envelope",
 };
 /// Non-linear integer arithmetic, exact (cvc5's incremental linearisation is fast on it).
 pub const INTEGER: ExactEncoding = ExactEncoding {
     sort: exact::Sort::Int,
     products: exact::Products::Exact,
+    cuts: Cuts::None,
     label: "exact integers",
 };
 /// Exact terms as bit-vectors at the narrowest widths.
 pub const EXACT_BV: ExactEncoding = ExactEncoding {
     sort: exact::Sort::BitVec,
     products: exact::Products::Exact,
+    cuts: Cuts::None,
     label: "exact terms",
 };
 /// Bit-vectors, products outside the free parameters bounded by their intervals.
 pub const ABSTRACT_BV: ExactEncoding = ExactEncoding {
     sort: exact::Sort::BitVec,
     products: exact::Products::Interval,
+    cuts: Cuts::None,
     label: "abstracted products",
+};
+/// [`LINEAR`] over the `let`s as cut points ([`Cuts::Lets`]).
+pub const LINEAR_LETS: ExactEncoding = ExactEncoding {
+    cuts: Cuts::Lets,
+    label: "linear envelope, cut at lets",
+    ..LINEAR
+};
+/// [`INTEGER`] over the `let`s as cut points ([`Cuts::Lets`]).
+pub const INTEGER_LETS: ExactEncoding = ExactEncoding {
+    cuts: Cuts::Lets,
+    label: "exact integers, cut at lets",
+    ..INTEGER
 };
 
 /// Which question an exact query asks.
@@ -85,7 +133,7 @@ pub(super) fn exact_query(
             _ => (q.ty.min(), q.ty.max()),
         }
     };
-    let terms = exact::terms(plan, &ranges);
+    let terms = exact::terms_cut(plan, &ranges, &|id| how.cuts.selects(plan, id));
     // Over-approximations (products as fresh variables bounded by their interval, or by
     // their linear envelope) are sound: more behaviours, not fewer; a counterexample they
     // find may be spurious, and the replay says so.
@@ -116,6 +164,7 @@ pub(super) fn exact_query(
     };
     // Every variable inside its assumed range.
     let mut vars: Vec<Rc<T>> = terms.pre.values().cloned().collect();
+    vars.extend(terms.cuts.iter().cloned());
     vars.extend(params_t.iter().map(|(t, _)| t.clone()));
     vars.extend(
         grids
@@ -188,7 +237,7 @@ fn param_terms(
 /// The script of an exact-term query: the emitter's logic, declarations and definitions,
 /// `premises` then the emitter's own premises asserted, `goal` negated; the model asked for
 /// is every declared variable.
-fn finish(mut em: exact::Emitter, mut premises: Vec<String>, goal: &str) -> Query {
+pub(super) fn finish(mut em: exact::Emitter, mut premises: Vec<String>, goal: &str) -> Query {
     premises.append(&mut em.premises);
     let mut text = format!("(set-logic {})\n", em.logic());
     text.push_str(&em.declarations());

@@ -2,27 +2,43 @@
 //! input bits, lands inside them again. With the initial obligations this proves the ranges
 //! and invariants for every reachable state, for unbounded time.
 
-use super::exact_query::{invariant_query, Side, EXACT_BV, INTEGER, LINEAR};
-use super::step::{state_bound, Step};
+use super::exact_query::{
+    invariant_query, Cuts, Side, EXACT_BV, INTEGER, INTEGER_LETS, LINEAR, LINEAR_LETS,
+};
+use super::step::{state_bound, Step, BIT_PRECISE, PRODUCTS_CUT};
 use super::{Goal, Kind, Obligation};
 use crate::ir::SigId;
 use crate::prove::smt::PropEnv;
 use std::collections::BTreeSet;
 
-/// State `id` stays inside its range after one step (bit-precise).
-pub(super) fn state_range(step: &Step, id: SigId) -> Obligation {
+/// State `id` stays inside its range after one step: bit-precise, first with the products cut
+/// (saturation on the store, a clamp or a branch that holds the state decide most ranges
+/// without a multiplier), then whole.
+pub(super) fn state_range(step: &Step, id: SigId) -> Vec<Obligation> {
     let plan = step.plan;
     let s = plan.prog.sig(id);
     let goal = state_bound(plan, id, &step.enc.post[&id]);
     let needed = step.cone.post_of(&BTreeSet::from([id]));
-    Obligation {
+    [
+        (
+            step.cut_query(Cuts::Products, None, &[], &goal, &step.want, false),
+            PRODUCTS_CUT,
+        ),
+        (
+            step.query(&needed, &[], &goal, &step.want, false),
+            BIT_PRECISE,
+        ),
+    ]
+    .into_iter()
+    .map(|(query, how)| Obligation {
         name: format!("{} stays inside its range", s.name),
         kind: Kind::Inductive,
-        query: step.query(&needed, &[], &goal, &step.want, false),
+        query,
         goal: Goal::StateBound(id),
         line: s.span.start().line,
-        encoding: None,
-    }
+        encoding: Some(how),
+    })
+    .collect()
 }
 
 /// Invariant `k` holds after one step: a portfolio of exact-term encodings, cheapest first,
@@ -34,7 +50,7 @@ pub(super) fn invariant(step: &Step, k: usize) -> Vec<Obligation> {
     let line = inv.span.start().line;
     let name = format!("invariant {} is inductive", inv.name);
     let mut out = Vec::new();
-    for how in [LINEAR, INTEGER, EXACT_BV] {
+    for how in [LINEAR, LINEAR_LETS, INTEGER, INTEGER_LETS, EXACT_BV] {
         if let Some(query) = invariant_query(plan, Side::Step, k, how) {
             out.push(Obligation {
                 name: name.clone(),
@@ -57,14 +73,25 @@ pub(super) fn invariant(step: &Step, k: usize) -> Vec<Obligation> {
         let mut sigs = BTreeSet::new();
         inv.cond.post_signals(&mut sigs, true);
         let needed = step.cone.post_of(&sigs);
-        out.push(Obligation {
-            name,
-            kind: Kind::Inductive,
-            query: step.query(&needed, &[], &goal, &step.want, false),
-            goal: Goal::Invariant(k),
-            line,
-            encoding: Some("bit-precise"),
-        });
+        for (query, how) in [
+            (
+                step.cut_query(Cuts::Products, None, &[], &goal, &step.want, false),
+                PRODUCTS_CUT,
+            ),
+            (
+                step.query(&needed, &[], &goal, &step.want, false),
+                BIT_PRECISE,
+            ),
+        ] {
+            out.push(Obligation {
+                name: name.clone(),
+                kind: Kind::Inductive,
+                query,
+                goal: Goal::Invariant(k),
+                line,
+                encoding: Some(how),
+            });
+        }
     }
     out
 }

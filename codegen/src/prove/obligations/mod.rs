@@ -63,6 +63,20 @@ impl Obligation {
     }
 }
 
+impl Obligation {
+    /// Whether a solver decides it in about a millisecond, so that it may share a solver
+    /// process with others ([`crate::prove::solver::run_all_batched`]): a local overflow
+    /// query (its operands free in their intervals), but for the bit-vector form of a
+    /// product, and an initial-state query (the state fixed to constants).
+    pub fn small(&self) -> bool {
+        match (&self.goal, self.kind) {
+            (Goal::Val { local: true, .. }, _) => self.encoding != Some(overflow::BIT_VECTOR),
+            (_, Kind::Initial) => true,
+            _ => false,
+        }
+    }
+}
+
 impl Kind {
     /// Lower-case name used in reports and JSON.
     pub fn name(self) -> &'static str {
@@ -131,7 +145,7 @@ pub fn with_witnesses(plan: &Plan) -> (Vec<Obligation>, Vec<Option<Query>>) {
     let mut out = overflow::obligations(&step);
     for id in prog.ids_of(SigKind::State) {
         out.push(initial::state_range(plan, id));
-        out.push(inductive::state_range(&step, id));
+        out.extend(inductive::state_range(&step, id));
     }
     for k in 0..prog.invariants.len() {
         out.extend(initial::invariant(plan, k));

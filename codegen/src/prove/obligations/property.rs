@@ -6,8 +6,10 @@
 //! counts). A separate witness query per property checks that its premises can be met at
 //! all, since a property with unsatisfiable premises holds vacuously.
 
-use super::exact_query::{exact_query, Side, ABSTRACT_BV, EXACT_BV, INTEGER, LINEAR};
-use super::step::Step;
+use super::exact_query::{
+    exact_query, Cuts, Side, ABSTRACT_BV, EXACT_BV, INTEGER, INTEGER_LETS, LINEAR, LINEAR_LETS,
+};
+use super::step::{Step, BIT_PRECISE, PRODUCTS_CUT};
 use super::{param_grids, ExactEncoding, Goal, Kind, Obligation};
 use crate::prove::exact::{PropTerms, B};
 use crate::prove::smt::{in_range, PropEnv};
@@ -41,10 +43,13 @@ pub(super) fn portfolio(step: &Step, k: usize) -> Vec<Obligation> {
     // Cheapest first: each solver stops at its first proof.
     [
         exact(LINEAR),
+        exact(LINEAR_LETS),
         exact(INTEGER),
+        exact(INTEGER_LETS),
+        (direct_query(step, k, false, Cuts::Products), PRODUCTS_CUT),
         exact(EXACT_BV),
         exact(ABSTRACT_BV),
-        (direct_query(step, k, false), "bit-precise"),
+        (direct_query(step, k, false, Cuts::None), BIT_PRECISE),
     ]
     .into_iter()
     .filter_map(|(query, how)| {
@@ -64,12 +69,13 @@ pub(super) fn portfolio(step: &Step, k: usize) -> Vec<Obligation> {
 /// of property `k` (state ranges, invariants, input ranges, `assume`s): `unsat` means the
 /// property holds vacuously.
 pub(super) fn witness(step: &Step, k: usize) -> Option<Query> {
-    direct_query(step, k, true)
+    direct_query(step, k, true, Cuts::None)
 }
 
-/// The bit-precise (SSA) encoding of property `k`, with lemmas for its cone of influence; as
-/// a `witness`, with the goal `false`.
-fn direct_query(step: &Step, k: usize, witness: bool) -> Option<Query> {
+/// The bit-precise (SSA) encoding of property `k`, with lemmas for its cone of influence
+/// (with `cuts`, for what the goal reaches through the definitions not cut); as a
+/// `witness`, with the goal `false`.
+fn direct_query(step: &Step, k: usize, witness: bool, cuts: Cuts) -> Option<Query> {
     let plan = step.plan;
     let p = &plan.prog.properties[k];
     let grids = &param_grids(plan, k);
@@ -120,7 +126,10 @@ fn direct_query(step: &Step, k: usize, witness: bool) -> Option<Query> {
     } else {
         conj(&ensures)
     };
-    let mut q = step.query(&needed, &premises, &goal, &want, true);
+    let mut q = match cuts {
+        Cuts::None => step.query(&needed, &premises, &goal, &want, true),
+        _ => step.cut_query(cuts, None, &premises, &goal, &want, true),
+    };
     q.script = q.script.replacen(
         "(set-logic QF_BV)\n",
         &format!("(set-logic QF_BV)\n{decls}"),

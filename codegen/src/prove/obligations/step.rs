@@ -7,14 +7,22 @@
 //! in the cone of influence of the goal are included.
 
 use super::cone::Cone;
+use super::exact_query::Cuts;
 use super::path::Paths;
 use crate::ir::{SigId, SigKind};
 use crate::lower::lir::{Op, ValId};
 use crate::lower::Plan;
 use crate::prove::smt::{self, encode_step, in_range, resize, vname, PropEnv, StepEncoding};
 use crate::prove::solver::Query;
-use std::collections::BTreeSet;
+use std::collections::{BTreeSet, HashMap};
 use std::fmt::Write;
+
+/// The label of the bit-precise encoding of the step, where an obligation is tried in
+/// several.
+pub const BIT_PRECISE: &str = "bit-precise";
+/// The label of the bit-precise encoding with every product a cut point
+/// ([`Cuts::Products`]).
+pub const PRODUCTS_CUT: &str = "bit-precise, products cut";
 
 /// What the whole-program queries of a plan share, computed once.
 pub(super) struct Step<'a> {
@@ -115,6 +123,127 @@ impl<'a> Step<'a> {
             want: want.to_vec(),
         }
     }
+}
+
+impl Step<'_> {
+    /// A whole-step query like [`Step::query`] in which the values that `cuts` selects (but
+    /// `keep`, the goal's own value) are cut points: declared, not defined, and bounded by
+    /// their intervals (lemmas, each an obligation of its own; see
+    /// [`super::exact_query::Cuts`]). Lemmas are added for the values the goal and premises
+    /// reach through definitions that are not cut, so the script holds only what lies
+    /// between the goal and the cut, not the multipliers behind it.
+    pub fn cut_query(
+        &self,
+        cuts: Cuts,
+        keep: Option<ValId>,
+        extra: &[String],
+        goal: &str,
+        want: &[String],
+        inputs_in_range: bool,
+    ) -> Query {
+        let plan = self.plan;
+        let cut = |id: ValId| {
+            let v = plan.val(id);
+            Some(id) != keep
+                && !v.boolean
+                && !matches!(v.op, Op::Input(_) | Op::Load(_) | Op::Const(_))
+                && cuts.selects(plan, id)
+        };
+        // Definitions by name; a cut value has none.
+        let mut bodies: HashMap<String, &str> = HashMap::new();
+        for line in self.enc.text.lines() {
+            if let Some((name, body)) = definition(line) {
+                let is_cut = value_of(name).is_some_and(cut);
+                if !is_cut {
+                    bodies.insert(name.to_string(), body);
+                }
+            }
+        }
+        let mut premises = self.state_premises();
+        if inputs_in_range {
+            let prog = &plan.prog;
+            for id in prog.ids_of(SigKind::Input) {
+                let (lo, hi) = plan.bounds(id);
+                let (t, w) = signed_view(plan, id, &smt::input_var(prog, id));
+                premises.push(in_range(&t, w, lo, hi));
+            }
+        }
+        premises.extend(extra.iter().cloned());
+        // Lemmas for what the goal, the premises and the lemmas' own path conditions reach.
+        let mut lemma_vals: BTreeSet<ValId> = BTreeSet::new();
+        loop {
+            let lemmas = self.lemmas(&lemma_vals, keep);
+            let roots = premises.iter().chain(&lemmas).map(String::as_str);
+            let reached: BTreeSet<ValId> = reach(&bodies, roots.chain([goal]))
+                .iter()
+                .filter_map(|n| value_of(n))
+                .collect();
+            if reached.is_subset(&lemma_vals) {
+                premises.extend(lemmas);
+                break;
+            }
+            lemma_vals.extend(reached);
+        }
+        // The step's text with each cut value declared, and only the reached ones kept.
+        let mut text = String::with_capacity(self.enc.text.len());
+        for line in self.enc.text.lines() {
+            match definition(line).and_then(|(n, _)| value_of(n).map(|id| (n, id))) {
+                Some((_, id)) if cut(id) => {
+                    if lemma_vals.contains(&id) {
+                        let w = plan.val(id).ty.bits;
+                        let _ = writeln!(text, "(declare-fun {} () (_ BitVec {w}))", vname(id));
+                    }
+                }
+                _ => {
+                    text.push_str(line);
+                    text.push('\n');
+                }
+            }
+        }
+        Query {
+            script: script(&text, &premises, goal),
+            want: want.to_vec(),
+        }
+    }
+}
+
+/// The name and body of a `define-fun` line of the step's encoding.
+fn definition(line: &str) -> Option<(&str, &str)> {
+    line.strip_prefix("(define-fun ")?.split_once(' ')
+}
+
+/// The plan value a definition's name (`v12`) stands for.
+fn value_of(name: &str) -> Option<ValId> {
+    name.strip_prefix('v')?.parse().ok().map(ValId)
+}
+
+/// The names that `roots` reach through the definitions in `bodies`, the roots' own tokens
+/// included.
+fn reach<'a>(
+    bodies: &HashMap<String, &str>,
+    roots: impl Iterator<Item = &'a str>,
+) -> BTreeSet<String> {
+    let mut seen: BTreeSet<String> = BTreeSet::new();
+    let mut todo: Vec<String> = Vec::new();
+    let tokens = |text: &str| -> Vec<String> {
+        text.split(|c: char| c == '(' || c == ')' || c.is_whitespace())
+            .filter(|t| !t.is_empty())
+            .map(str::to_string)
+            .collect()
+    };
+    for r in roots {
+        todo.extend(tokens(r));
+    }
+    while let Some(t) = todo.pop() {
+        if seen.contains(&t) {
+            continue;
+        }
+        if let Some(body) = bodies.get(&t) {
+            todo.extend(tokens(body));
+        }
+        seen.insert(t);
+    }
+    seen
 }
 
 /// The SMT variables of one step: every input and pre-step state.

@@ -8,6 +8,7 @@
 //! | this one    | the vocabulary: [`Solver`], [`Query`], [`Answer`], [`Run`], [`Config`] |
 //! | `portfolio` | every query on every solver, `jobs` at a time, with group cancellation |
 //! | `run`       | one solver on one query: the text sent, cache, deadline, answer        |
+//! | `batch`     | one solver on several small queries in one process                     |
 //! | `process`   | a child process with a time limit and a cancel flag, always reaped     |
 //! | `sexp`      | reading the S-expressions solvers print                                |
 //! | `response`  | a solver's standard output as an [`Answer`] (verdict, bit-vector model) |
@@ -42,6 +43,7 @@
 //! Using either crate would mean writing around it as much code as `process` and `sexp`
 //! hold, so both stay hand-written, each in its own module with its own tests.
 
+mod batch;
 mod cache;
 mod portfolio;
 mod process;
@@ -51,7 +53,7 @@ mod sexp;
 #[cfg(test)]
 mod testing;
 
-pub use portfolio::{run_all, run_all_grouped};
+pub use portfolio::{run_all, run_all_batched, run_all_grouped};
 
 use process::probe_version;
 use std::path::PathBuf;

@@ -8,6 +8,7 @@
 //! the group. Cancellation reaches a running solver through a flag that `process`
 //! polls, which kills the child.
 
+use super::batch::{run_batch, BATCH};
 use super::run::{run_one, solver_text};
 use super::{Answer, Config, Query, Run};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -48,15 +49,32 @@ pub fn run_all_grouped(
     progress: &mut dyn FnMut(usize, usize, usize),
     confirm: &mut dyn FnMut(usize, &Run) -> bool,
 ) -> Vec<Vec<Run>> {
+    run_all_batched(queries, groups, &[], cfg, progress, confirm)
+}
+
+/// Like [`run_all_grouped`], where the queries marked in `small` (missing entries: not small)
+/// may share a solver process, [`BATCH`] at a time ([`super::batch`]: the same verdicts, a
+/// fraction of the process starts). A query of a group that holds a small query runs after
+/// every batch of its solver: it is the small query's fallback, and usually cancelled by its
+/// proof.
+pub fn run_all_batched(
+    queries: &[Query],
+    groups: &[usize],
+    small: &[bool],
+    cfg: &Config,
+    progress: &mut dyn FnMut(usize, usize, usize),
+    confirm: &mut dyn FnMut(usize, &Run) -> bool,
+) -> Vec<Vec<Run>> {
     let solvers = &cfg.solvers;
     let total = queries.len() * solvers.len();
     if total == 0 {
         return vec![Vec::new(); queries.len()];
     }
-    let schedule = Schedule::new(queries, groups, cfg);
+    let schedule = Schedule::new(queries, groups, small, cfg);
     let mut slots: Vec<Vec<Option<Run>>> = vec![vec![None; solvers.len()]; queries.len()];
     let mut done = 0;
-    on_workers(&schedule, cfg.jobs.clamp(1, total), &mut |(qi, si, run)| {
+    let workers = cfg.jobs.clamp(1, schedule.tasks.len().max(1));
+    on_workers(&schedule, workers, &mut |(qi, si, run)| {
         if matches!(run.answer, Answer::Sat(_)) && confirm(qi, &run) {
             schedule.stop_group(qi);
         }
@@ -104,17 +122,69 @@ struct Schedule<'a> {
     versions: Vec<Option<&'static str>>,
     /// The text sent for each query.
     texts: Vec<String>,
+    /// The tasks, in the order they are handed out.
+    tasks: Vec<Task>,
     /// The next task to hand out.
     next: AtomicUsize,
 }
 
+/// One unit of work: one solver on one query, or on a batch of small queries.
+struct Task {
+    /// Index into the configured solvers.
+    solver: usize,
+    /// The queries (more than one: a batch).
+    queries: Vec<usize>,
+}
+
 impl<'a> Schedule<'a> {
-    /// The schedule of `queries` in `groups` on `cfg.solvers`.
-    fn new(queries: &'a [Query], groups: &'a [usize], cfg: &'a Config) -> Self {
+    /// The schedule of `queries` in `groups` on `cfg.solvers`, the `small` ones in batches.
+    fn new(queries: &'a [Query], groups: &'a [usize], small: &[bool], cfg: &'a Config) -> Self {
         let ngroups = groups.iter().copied().max().map_or(0, |g| g + 1);
         let mut sizes = vec![0usize; ngroups];
         for g in groups {
             sizes[*g] += 1;
+        }
+        let is_small = |qi: usize| small.get(qi).copied().unwrap_or(false);
+        let group_of = |qi: usize| groups.get(qi).copied().unwrap_or(qi);
+        let mut with_small = vec![false; ngroups.max(queries.len())];
+        for qi in (0..queries.len()).filter(|&qi| is_small(qi)) {
+            with_small[group_of(qi)] = true;
+        }
+        // Solver-major order: every query's first solver, then the second: the encodings
+        // of one obligation run side by side, and a solver's first proof cancels its
+        // runs on the rest.
+        let mut tasks = Vec::new();
+        for si in 0..cfg.solvers.len() {
+            let mut batch: Vec<usize> = Vec::new();
+            let mut late = Vec::new();
+            for qi in 0..queries.len() {
+                if is_small(qi) {
+                    batch.push(qi);
+                    if batch.len() == BATCH {
+                        tasks.push(Task {
+                            solver: si,
+                            queries: std::mem::take(&mut batch),
+                        });
+                    }
+                    continue;
+                }
+                let task = Task {
+                    solver: si,
+                    queries: vec![qi],
+                };
+                if with_small[group_of(qi)] {
+                    late.push(task);
+                } else {
+                    tasks.push(task);
+                }
+            }
+            if !batch.is_empty() {
+                tasks.push(Task {
+                    solver: si,
+                    queries: batch,
+                });
+            }
+            tasks.extend(late);
         }
         Schedule {
             queries,
@@ -126,6 +196,7 @@ impl<'a> Schedule<'a> {
                 .collect(),
             versions: cfg.solvers.iter().map(|s| s.version()).collect(),
             texts: queries.iter().map(solver_text).collect(),
+            tasks,
             next: AtomicUsize::new(0),
         }
     }
@@ -135,46 +206,58 @@ impl<'a> Schedule<'a> {
         self.groups.get(qi).copied().unwrap_or(0)
     }
 
-    /// Takes the next task and runs it (or cancels it, when its solver has stopped working on
-    /// its group); `None` when every task has been handed out.
-    fn run_next(&self) -> Option<Done> {
-        let solvers = &self.cfg.solvers;
-        let per_query = solvers.len();
-        let t = self.next.fetch_add(1, Ordering::Relaxed);
-        if t >= self.queries.len() * per_query {
-            return None;
-        }
-        // Solver-major order: every query's first solver, then the second: the encodings
-        // of one obligation run side by side, and a solver's first proof cancels its
-        // runs on the rest.
-        let nq = self.queries.len();
-        let (qi, si) = (t % nq, t / nq);
+    /// The stop flag of query `qi`'s group for solver `si`, when the group has alternatives.
+    fn flag(&self, qi: usize, si: usize) -> Option<&AtomicBool> {
         let g = self.group(qi);
         let shared = self.sizes.get(g).copied().unwrap_or(1) > 1;
-        let flag = self.stop.get(g * per_query + si).filter(|_| shared);
-        if flag.is_some_and(|f| f.load(Ordering::Relaxed)) {
-            let run = Run {
-                solver: solvers[si],
-                answer: Answer::Cancelled,
-                millis: 0,
-                cached: false,
-            };
-            return Some((qi, si, run));
-        }
-        let run = run_one(
-            solvers[si],
-            self.versions[si],
-            &self.texts[qi],
-            &self.queries[qi].want,
-            self.cfg,
-            flag,
-        );
-        if run.answer == Answer::Unsat {
-            if let Some(f) = flag {
-                f.store(true, Ordering::Relaxed);
+        self.stop
+            .get(g * self.cfg.solvers.len() + si)
+            .filter(|_| shared)
+    }
+
+    /// Takes the next task and runs it (or cancels it, when its solver has stopped working on
+    /// its group); `None` when every task has been handed out.
+    fn run_next(&self) -> Option<Vec<Done>> {
+        let t = self.next.fetch_add(1, Ordering::Relaxed);
+        let task = self.tasks.get(t)?;
+        let si = task.solver;
+        let solver = self.cfg.solvers[si];
+        let cancelled = Run {
+            solver,
+            answer: Answer::Cancelled,
+            millis: 0,
+            cached: false,
+        };
+        let stopped = |qi: usize| self.flag(qi, si).is_some_and(|f| f.load(Ordering::Relaxed));
+        let (off, on): (Vec<usize>, Vec<usize>) = task.queries.iter().partition(|&&qi| stopped(qi));
+        let mut out: Vec<Done> = off
+            .into_iter()
+            .map(|qi| (qi, si, cancelled.clone()))
+            .collect();
+        let runs = match on.as_slice() {
+            [] => Vec::new(),
+            &[qi] => vec![run_one(
+                solver,
+                self.versions[si],
+                &self.texts[qi],
+                &self.queries[qi].want,
+                self.cfg,
+                self.flag(qi, si),
+            )],
+            many => {
+                let qs: Vec<&Query> = many.iter().map(|&qi| &self.queries[qi]).collect();
+                run_batch(solver, self.versions[si], &qs, self.cfg)
             }
+        };
+        for (qi, run) in on.into_iter().zip(runs) {
+            if run.answer == Answer::Unsat {
+                if let Some(f) = self.flag(qi, si) {
+                    f.store(true, Ordering::Relaxed);
+                }
+            }
+            out.push((qi, si, run));
         }
-        Some((qi, si, run))
+        Some(out)
     }
 
     /// Stops every solver's work on the group of query `qi` (its counterexample replayed).
@@ -198,9 +281,11 @@ fn on_workers(schedule: &Schedule, workers: usize, record: &mut dyn FnMut(Done))
             let worker = thread::Builder::new()
                 .name("qloop-smt".to_string())
                 .spawn_scoped(scope, move || {
-                    while let Some(result) = schedule.run_next() {
-                        if tx.send(result).is_err() {
-                            break;
+                    'work: while let Some(results) = schedule.run_next() {
+                        for result in results {
+                            if tx.send(result).is_err() {
+                                break 'work;
+                            }
                         }
                     }
                 });
@@ -211,8 +296,8 @@ fn on_workers(schedule: &Schedule, workers: usize, record: &mut dyn FnMut(Done))
         drop(tx);
         if spawned == 0 {
             // No thread could be started: do the work here, one process at a time.
-            while let Some(result) = schedule.run_next() {
-                record(result);
+            while let Some(results) = schedule.run_next() {
+                results.into_iter().for_each(&mut *record);
             }
         } else {
             for result in rx {

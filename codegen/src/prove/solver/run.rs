@@ -84,23 +84,15 @@ pub(super) fn run_one(
         }
     }
     let start = Instant::now();
-    // The per-query timeout, cut short by the proof's deadline.
-    let timeout_ms = match cfg.deadline {
-        None => cfg.timeout_ms,
-        Some(end) => {
-            let left = end.saturating_duration_since(start).as_millis();
-            if left == 0 {
-                return Run {
-                    solver,
-                    answer: Answer::Error(
-                        "not run: the proof's time limit (--timeout) was reached first".into(),
-                    ),
-                    millis: 0,
-                    cached: false,
-                };
-            }
-            cfg.timeout_ms.min(u64::try_from(left).unwrap_or(u64::MAX))
-        }
+    let Some(timeout_ms) = timeout_ms(cfg, start) else {
+        return Run {
+            solver,
+            answer: Answer::Error(
+                "not run: the proof's time limit (--timeout) was reached first".into(),
+            ),
+            millis: 0,
+            cached: false,
+        };
     };
     let answer = execute(
         solver.name(),
@@ -122,6 +114,18 @@ pub(super) fn run_one(
         answer,
         millis,
         cached: false,
+    }
+}
+
+/// The time limit of a run starting at `start`: the per-query timeout, cut short by the
+/// proof's deadline; `None` when the deadline has passed.
+pub(super) fn timeout_ms(cfg: &Config, start: Instant) -> Option<u64> {
+    match cfg.deadline {
+        None => Some(cfg.timeout_ms),
+        Some(end) => {
+            let left = end.saturating_duration_since(start).as_millis();
+            (left > 0).then(|| cfg.timeout_ms.min(u64::try_from(left).unwrap_or(u64::MAX)))
+        }
     }
 }
 
