@@ -623,6 +623,27 @@ impl PCond {
         }
     }
 
+    /// Whether the condition multiplies two values that are not constants (signals or free
+    /// parameters): a product a bit-precise encoding must bit-blast into a multiplier.
+    pub fn multiplies_variables(&self) -> bool {
+        fn constant(e: &PExpr) -> bool {
+            let mut c = true;
+            e.walk(&mut |x| {
+                if matches!(x, PExpr::Sig(..) | PExpr::Param(_)) {
+                    c = false;
+                }
+            });
+            c
+        }
+        let mut found = false;
+        self.walk(&mut |x| {
+            if let PExpr::Mul(a, b) = x {
+                found |= !constant(a) && !constant(b);
+            }
+        });
+        found
+    }
+
     /// Adds the signals the condition reads after the step (`next(s)`, outputs) to `out`, and
     /// the pre-step states as well if `pre_as_post` (an invariant read after a step).
     pub fn post_signals(&self, out: &mut std::collections::BTreeSet<SigId>, pre_as_post: bool) {

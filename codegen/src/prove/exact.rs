@@ -64,6 +64,10 @@ pub struct Emitter {
     /// Whether a product envelope's or a sum's bound did not fit an `i128` (see
     /// [`Emitter::overflowed`]).
     envelope_overflow: bool,
+    /// Names handed out so far: each definition's name is `e`, `q` or `b` and this count,
+    /// taken when the name is made (a product's name is made before its envelope's terms
+    /// are written, so the count of names already stored would hand it out twice).
+    fresh: usize,
 }
 
 impl Emitter {
@@ -74,6 +78,12 @@ impl Emitter {
             products,
             ..Default::default()
         }
+    }
+
+    /// A name not handed out before: `prefix` and a count.
+    fn fresh(&mut self, prefix: &str) -> String {
+        self.fresh += 1;
+        format!("{prefix}{}", self.fresh - 1)
     }
 
     /// The raw interval of a term.
@@ -170,7 +180,7 @@ impl Emitter {
             }
             T::Const(c) => (self.num(*c, own), own),
             T::Mul(a, b) if abstracted => {
-                let name = format!("q{}", self.names.len() + self.bnames.len());
+                let name = self.fresh("q");
                 let decl = format!("(declare-fun {name} () {})\n", self.sort_name(own));
                 self.declared.insert(name.clone(), decl);
                 let range = self.name_in_range(&name, own, lo, hi);
@@ -182,7 +192,7 @@ impl Emitter {
             }
             _ => {
                 let (body, w) = self.body(t, own);
-                let name = format!("e{}", self.names.len() + self.bnames.len());
+                let name = self.fresh("e");
                 let sort = self.sort_name(w);
                 let _ = writeln!(self.text, "(define-fun {name} () {sort} {body})");
                 (name, w)
@@ -382,7 +392,7 @@ impl Emitter {
             B::Or(x, y) => format!("(or {} {})", self.boolean(x), self.boolean(y)),
             B::Not(x) => format!("(not {})", self.boolean(x)),
         };
-        let name = format!("b{}", self.names.len() + self.bnames.len());
+        let name = self.fresh("b");
         let _ = writeln!(self.text, "(define-fun {name} () Bool {body})");
         self.bnames.insert(b.clone(), name.clone());
         name
@@ -431,6 +441,35 @@ mod tests {
             sub(add(shl(var("km"), 4), dd.clone()), shl(var("km"), 4)),
             dd
         );
+    }
+
+    /// A product whose factor holds another product not yet written gets a name of its own:
+    /// the outer product's name is made before its envelope writes the inner one, and a name
+    /// taken from the count of stored names handed both out as the same variable, so one
+    /// variable carried both envelopes, and a false invariant was "proved" in the linear
+    /// envelope (tests/fixtures/refute/determinant_bound_too_high.qloop).
+    #[test]
+    fn nested_abstracted_products_have_distinct_names() {
+        for products in [Products::Relaxed, Products::Interval] {
+            let mut em = Emitter::new(Sort::Int, products);
+            // The variables written first (as a premise on their ranges would), so that the
+            // inner product is the first new term the outer one's envelope writes.
+            for v in ["a", "x", "d", "y"] {
+                em.term(&var(v));
+            }
+            let inner = product(var("a"), var("x"));
+            let outer = product(add(inner.clone(), var("d")), var("y"));
+            let (o, _) = em.term(&outer);
+            let (i, _) = em.term(&inner);
+            assert_ne!(o, i, "{products:?}: both named {o}");
+            let declared: Vec<&str> = em
+                .declared
+                .keys()
+                .map(String::as_str)
+                .filter(|n| n.starts_with('q'))
+                .collect();
+            assert_eq!(declared.len(), 2, "{products:?}: {declared:?}");
+        }
     }
 
     /// The linear envelope of a product admits every true product over the factors'

@@ -128,7 +128,8 @@ pub(super) struct Frame<'a> {
 }
 
 impl Frame<'_> {
-    fn expr(&self, e: &PExpr) -> Option<Q> {
+    /// The expression evaluated exactly; `None` where a constant is not a binary fraction.
+    pub(super) fn expr(&self, e: &PExpr) -> Option<Q> {
         Some(match e {
             PExpr::Const(c) => constant(*c)?,
             PExpr::Sig(id, when) => {
@@ -434,10 +435,14 @@ pub fn describe(plan: &Plan, ob: &Obligation, cex: &Cex) -> Vec<String> {
             }
         }
     }
-    for (n, v, w) in &cex.values {
-        by_name
-            .entry(n.clone())
-            .or_insert_with(|| format!("operand {n} = raw {v} ({w} bits)"));
+    // A local query's model is its operands; a step query's other variables are the
+    // encoding's own (cut points, abstracted products), not part of the counterexample.
+    if let Goal::Val { local: true, .. } = ob.goal {
+        for (n, v, w) in &cex.values {
+            by_name
+                .entry(n.clone())
+                .or_insert_with(|| format!("operand {n} = raw {v} ({w} bits)"));
+        }
     }
     let mut lines: Vec<String> = by_name.into_values().collect();
     lines.extend(explain(plan, ob, cex));

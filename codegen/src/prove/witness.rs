@@ -6,14 +6,17 @@
 //! query for such a state. Where the premises hold in a state the controller reaches anyway,
 //! a run of the plan finds one in microseconds, while the solver query carries every product
 //! of the invariants (the determinant of a 3 × 3 covariance: a minute of z3). The search
-//! here tries the initial state and the states of a few seeded random runs, each with a few
-//! input and parameter choices, and checks every premise exactly (the replay's evaluator): a
-//! witness found is a real one. When none is found, the solver query runs as before.
+//! here tries the initial state and the states of a few seeded random runs (each also with
+//! its values rounded to a few significant bits), each with a few input and parameter
+//! choices; an `assume` that an input equals an expression of the pre-state (`ra == θᵀφ`:
+//! "a measurement the model predicts exactly") is met by setting that input, where the value
+//! is representable. Every premise is then checked exactly (the replay's evaluator): a witness
+//! found is a real one. When none is found, the solver query runs as before.
 
 use super::obligations::param_grids;
 use super::replay::{Frame, Q};
 use crate::interp::step_fixed;
-use crate::ir::{SigId, SigKind};
+use crate::ir::{CmpOp, PCond, PExpr, SigId, SigKind, When};
 use crate::lower::Plan;
 use num_bigint::BigInt;
 
@@ -97,6 +100,7 @@ pub fn concrete(plan: &Plan, k: usize) -> Option<String> {
                     frac: g.frac,
                 })
                 .collect();
+            solve_equalities(plan, &prop.assumes, &mut slots, &params);
             let mut post = slots.clone();
             if step_fixed(plan, &mut post).is_err() {
                 continue;
@@ -113,8 +117,20 @@ pub fn concrete(plan: &Plan, k: usize) -> Option<String> {
         }
         false
     };
-    if meets(&init, &mut rng) {
-        return Some("the initial state".into());
+    // A state and, rounded to a few significant bits, a coarser one (an exact equality with
+    // products of states is easier to meet with short values).
+    let meets_either = |pre: &[i128], rng: &mut Rng| -> Option<&'static str> {
+        if meets(pre, rng) {
+            return Some("");
+        }
+        let mut coarse = pre.to_vec();
+        for &id in &states {
+            coarse[id.0] = coarsen(pre[id.0], COARSE_BITS);
+        }
+        meets(&coarse, rng).then_some(", rounded to a few bits")
+    };
+    if let Some(how) = meets_either(&init, &mut rng) {
+        return Some(format!("the initial state{how}"));
     }
     for run in 1..=RUNS {
         let mut slots = init.clone();
@@ -126,10 +142,79 @@ pub fn concrete(plan: &Plan, k: usize) -> Option<String> {
             if step_fixed(plan, &mut slots).is_err() {
                 break;
             }
-            if meets(&slots, &mut rng) {
-                return Some(format!("step {step} of run {run} from the initial state"));
+            if let Some(how) = meets_either(&slots, &mut rng) {
+                return Some(format!(
+                    "step {step} of run {run} from the initial state{how}"
+                ));
             }
         }
     }
     None
+}
+
+/// Significant bits kept by [`coarsen`].
+const COARSE_BITS: u32 = 3;
+
+/// `v` rounded toward zero to its `bits` most significant bits.
+fn coarsen(v: i128, bits: u32) -> i128 {
+    let mag = v.unsigned_abs();
+    let width = 128 - mag.leading_zeros();
+    let drop = width.saturating_sub(bits);
+    let kept = (mag >> drop) << drop;
+    if v < 0 {
+        -(kept as i128)
+    } else {
+        kept as i128
+    }
+}
+
+/// For each `assume` of the form `INPUT == e` (or `e == INPUT`) where `e` reads neither that
+/// input nor any value after the step, sets the input's raw slot to `e`'s exact value when
+/// its format and range hold it (otherwise leaves it).
+fn solve_equalities(plan: &Plan, assumes: &[PCond], slots: &mut [i128], params: &[Q]) {
+    let reads = |e: &PExpr, id: SigId| {
+        let mut r = false;
+        e.walk(&mut |x| {
+            if let PExpr::Sig(s, w) = x {
+                r |= *s == id || *w == When::Post;
+            }
+        });
+        r
+    };
+    for c in assumes {
+        let PCond::Cmp(CmpOp::Eq, a, b) = c else {
+            continue;
+        };
+        for (x, e) in [(a, b), (b, a)] {
+            let PExpr::Sig(id, _) = x else { continue };
+            if plan.prog.sig(*id).kind != SigKind::Input || reads(e, *id) {
+                continue;
+            }
+            let frame = Frame {
+                plan,
+                pre: slots,
+                post: slots,
+                params,
+            };
+            let Some(v) = frame.expr(e) else { continue };
+            let f = plan.format(*id).frac;
+            // Representable at the input's binary point: no bits below it.
+            let shift = v.frac - f;
+            let raw = if shift > 0 {
+                let unit = BigInt::from(1) << shift as usize;
+                if &v.raw % &unit != BigInt::from(0) {
+                    continue;
+                }
+                &v.raw / &unit
+            } else {
+                &v.raw << (-shift) as usize
+            };
+            let (lo, hi) = plan.bounds(*id);
+            if let Ok(raw) = i128::try_from(raw) {
+                if (lo..=hi).contains(&raw) {
+                    slots[id.0] = raw;
+                }
+            }
+        }
+    }
 }
