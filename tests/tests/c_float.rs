@@ -224,7 +224,7 @@ fn reference(name: &str) -> Reference {
             dxp,
             xi
         }),
-        "gac_surface_finish" => reference!(gac_surface_finish_ref { f, theta[2], P[2][2] }),
+        "gac_surface_finish" => reference!(gac_surface_finish_ref { f, theta[2], pred, P[2][2] }),
         other => panic!("spec `{other}` has no reference module here: add it to reference()"),
     }
 }
