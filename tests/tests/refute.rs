@@ -17,6 +17,7 @@ qloop_macros::controller!("fixtures/refute/property_sign_error.qloop");
 qloop_macros::controller!("fixtures/refute/recip_tracker_gain_too_large.qloop");
 qloop_macros::controller!("fixtures/refute/rls_unbounded_covariance.qloop");
 qloop_macros::controller!("fixtures/refute/table_claim_too_small.qloop");
+qloop_macros::controller!("fixtures/refute/determinant_bound_too_high.qloop");
 
 fn fixture(name: &str) -> (String, PathBuf) {
     let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -229,6 +230,35 @@ fn table_claim_too_small_is_exceeded_by_compiled_code() {
     );
 }
 
+/// The reset test accepts a product of at least 1 and the invariant claims 1.0625: from a
+/// pre-state inside the invariant, the compiled step stores a pair whose product is below it.
+/// (The emitter bug this guards against, two products under one name in the linear
+/// envelope, had this invariant "proved".)
+#[test]
+fn determinant_bound_too_high_is_broken_by_compiled_code() {
+    let (_, o) = refuted("determinant_bound_too_high");
+    let (a, b) = (cex(&o, "pre_a") as i16, cex(&o, "pre_b") as i16);
+    let q12 = |raw: i16| f64::from(raw) / 4096.0;
+    assert!(
+        q12(a) * q12(b) >= 1.0625,
+        "the pre-state is outside the invariant: a = {}, b = {}",
+        q12(a),
+        q12(b)
+    );
+    let mut c = determinant_bound_too_high::Controller::new();
+    c.set_states(determinant_bound_too_high::States {
+        a: FixedI16::from_bits(a),
+        b: FixedI16::from_bits(b),
+    });
+    c.step(determinant_bound_too_high::Inputs {
+        x: FixedI16::from_bits(cex(&o, "in_x") as i16),
+        y: FixedI16::from_bits(cex(&o, "in_y") as i16),
+    });
+    let s = c.states();
+    let (na, nb) = (s.a.to_num::<f64>(), s.b.to_num::<f64>());
+    assert!(na * nb < 1.0625, "the invariant holds after the step: {na} * {nb}");
+}
+
 #[test]
 fn corpus_is_complete() {
     // Every fixture in the folder has a replay test above.
@@ -245,6 +275,7 @@ fn corpus_is_complete() {
             "c2_too_large",
             "claimed_range_too_narrow",
             "csd_partial_sum",
+            "determinant_bound_too_high",
             "missing_saturation",
             "property_sign_error",
             "recip_tracker_gain_too_large",
