@@ -647,7 +647,7 @@ impl Report {
             o,
             "\nOverflow obligations assume only the state ranges and invariants; with the initial and \
 inductive obligations they hold for every reachable state, by induction over one step, for unbounded time. \
-Inputs are arbitrary bits (step clamps them), except in properties, which assume inputs in range. The obligations lean on each other: whole-program queries take other values' intervals as lemmas, and the integer encodings of properties and invariants rely on no value wrapping, so the spec is proved only when every obligation is. Over-approximate encodings (abstracted products, linear envelopes) can only yield spurious counterexamples, and the replay rejects those."
+Inputs are arbitrary bits (step clamps them), except in properties, which assume inputs in range. The obligations lean on each other: whole-program queries take other values' intervals as lemmas, and the integer encodings of properties and invariants rely on no value wrapping, so the spec is proved only when every obligation is. Over-approximate encodings (abstracted products, linear envelopes, cut points) can only yield spurious counterexamples, and the replay rejects those: a model whose pre-state breaks a range or an invariant, or whose step does not break the obligation."
         );
         o
     }
