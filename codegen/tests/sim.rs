@@ -203,3 +203,33 @@ fn sweep_reports_worst_cases_and_replays_a_seed() {
     assert!(dir.join("trace.csv").exists());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The estimating seed specs of issue 16 run in `sweep` on their plants: the GAC once a part on
+/// the finishing plant, the adaptive pole-zero cancellation on the grinding plant; every draw
+/// stable in both loops, and a dimensionless state (the covariance) reported without a unit.
+#[test]
+fn sweep_runs_the_estimating_specs_on_their_plants() {
+    for (spec_file, plant, draws) in [
+        ("gac_surface_finish.qloop", "finishing", "12"),
+        ("grinding_adaptive_pzc.qloop", "grinding", "8"),
+    ] {
+        let o = qloop(&[
+            "sweep",
+            &spec(spec_file),
+            "--plant",
+            plant,
+            "--draws",
+            draws,
+        ]);
+        let out = text(&o.stdout);
+        assert_eq!(o.status.code(), Some(0), "{spec_file}: {}", text(&o.stderr));
+        assert!(out.contains(&format!("{draws} draws")), "{out}");
+        assert!(
+            out.contains(&format!(
+                "fixed-point {draws}/{draws}, f64 reference {draws}/{draws}"
+            )),
+            "{spec_file}: not every draw stable:\n{out}"
+        );
+        assert!(!out.contains("max abs ()"), "{out}");
+    }
+}

@@ -256,7 +256,10 @@ fn determinant_bound_too_high_is_broken_by_compiled_code() {
     });
     let s = c.states();
     let (na, nb) = (s.a.to_num::<f64>(), s.b.to_num::<f64>());
-    assert!(na * nb < 1.0625, "the invariant holds after the step: {na} * {nb}");
+    assert!(
+        na * nb < 1.0625,
+        "the invariant holds after the step: {na} * {nb}"
+    );
 }
 
 #[test]

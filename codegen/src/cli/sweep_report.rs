@@ -98,9 +98,11 @@ pub fn report(
     }
     for (name, w) in &e.max_diff {
         let u = units(name);
+        // A dimensionless signal (a covariance) has no unit to show.
+        let u = if u.is_empty() { u } else { format!(" ({u})") };
         row(
             &mut s,
-            &format!("fixed − f64 {name}, max abs ({u})"),
+            &format!("fixed − f64 {name}, max abs{u}"),
             w,
             &|v| format!("{v:.3e}"),
         );
