@@ -10,6 +10,23 @@ use qloop::ir::SigId;
 use qloop::{Plan, Target};
 use std::path::PathBuf;
 
+/// A prover configuration with both solvers, two jobs, no cache and the given per-query time
+/// limit; panics (with how to install them) when z3 or cvc5 is missing.
+pub fn both_solvers(timeout_ms: u64) -> qloop::prove::solver::Config {
+    use qloop::prove::solver::{Config, Solver};
+    assert!(
+        Solver::ALL.iter().all(|s| s.available()),
+        "z3 and cvc5 must be installed (apt-get install z3 cvc5)"
+    );
+    Config {
+        solvers: Solver::ALL.to_vec(),
+        timeout_ms,
+        cache_dir: None,
+        jobs: 2,
+        deadline: None,
+    }
+}
+
 /// `verified/specs`.
 pub fn specs_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../verified/specs")

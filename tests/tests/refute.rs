@@ -4,7 +4,6 @@
 //! Needs z3 and cvc5 (`.ci/run` installs them).
 
 use fixed::{FixedI16, FixedI32};
-use qloop::prove::solver::{Config, Solver};
 use qloop::prove::{Outcome, Verdict};
 use qloop::Plan;
 use std::path::PathBuf;
@@ -35,18 +34,8 @@ fn refuted(name: &str) -> (Plan, Outcome) {
         .and_then(|l| l.strip_prefix("// expect-refuted: "))
         .expect("first line names the refuted obligation")
         .to_string();
-    assert!(
-        Solver::ALL.iter().all(|s| s.available()),
-        "z3 and cvc5 must be installed (apt-get install z3 cvc5)"
-    );
     let plan = qloop::compile_str(&src, &qloop::Target::default()).expect("fixture compiles");
-    let cfg = Config {
-        solvers: Solver::ALL.to_vec(),
-        timeout_ms: 20_000,
-        cache_dir: None,
-        jobs: 2,
-        deadline: None,
-    };
+    let cfg = qloop_tests::both_solvers(20_000);
     let report = qloop::prove::prove(&plan, &cfg, &mut |_| {});
     let table = report.table(&plan);
     let o = report

@@ -12,7 +12,7 @@
 
 use fixed::types::extra::{U27, U30};
 use fixed::FixedI32;
-use qloop::prove::solver::{Answer, Config, Solver};
+use qloop::prove::solver::{Answer, Solver};
 use qloop::Plan;
 
 qloop_macros::controller!("tests/rls3.qloop");
@@ -69,17 +69,7 @@ impl Rls {
 #[test]
 fn every_obligation_and_the_positive_definiteness_are_proved_by_both_solvers() {
     let p = plan();
-    assert!(
-        Solver::ALL.iter().all(|s| s.available()),
-        "z3 and cvc5 must be installed (apt-get install z3 cvc5)"
-    );
-    let cfg = Config {
-        solvers: Solver::ALL.to_vec(),
-        timeout_ms: 60_000,
-        cache_dir: None,
-        jobs: 2,
-        deadline: None,
-    };
+    let cfg = qloop_tests::both_solvers(60_000);
     let r = qloop::prove::prove(&p, &cfg, &mut |_| {});
     assert!(r.proved(), "{}", r.table(&p));
     for inv in [

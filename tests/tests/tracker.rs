@@ -7,7 +7,6 @@
 //! tests/fixtures/refute/recip_tracker_gain_too_large.qloop.)
 
 use fixed::FixedI16;
-use qloop::prove::solver::{Config, Solver};
 use qloop::Plan;
 
 qloop_macros::controller!("tests/tracker.qloop");
@@ -27,17 +26,7 @@ fn the_contraction_property_is_generated_and_proved() {
     assert!(t.claimed_rho > t.rho && t.claimed_rho < 0.94);
     let report = qloop::report::check_report(&p, "tracker.qloop");
     assert!(report.contains("kinv -> 1/km"), "{report}");
-    assert!(
-        Solver::ALL.iter().all(|s| s.available()),
-        "z3 and cvc5 must be installed (apt-get install z3 cvc5)"
-    );
-    let cfg = Config {
-        solvers: Solver::ALL.to_vec(),
-        timeout_ms: 60_000,
-        cache_dir: None,
-        jobs: 2,
-        deadline: None,
-    };
+    let cfg = qloop_tests::both_solvers(60_000);
     let r = qloop::prove::prove(&p, &cfg, &mut |_| {});
     assert!(r.proved(), "{}", r.table(&p));
     assert!(r

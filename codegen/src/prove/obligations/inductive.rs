@@ -3,9 +3,9 @@
 //! and invariants for every reachable state, for unbounded time.
 
 use super::exact_query::{
-    invariant_query, Cuts, Side, EXACT_BV, INTEGER, INTEGER_LETS, LINEAR, LINEAR_LETS,
+    invariant_query, Side, EXACT_BV, INTEGER, INTEGER_LETS, LINEAR, LINEAR_LETS,
 };
-use super::step::{state_bound, Step, BIT_PRECISE, PRODUCTS_CUT};
+use super::step::{state_bound, Step};
 use super::{Goal, Kind, Obligation};
 use crate::ir::SigId;
 use crate::prove::smt::PropEnv;
@@ -19,26 +19,17 @@ pub(super) fn state_range(step: &Step, id: SigId) -> Vec<Obligation> {
     let s = plan.prog.sig(id);
     let goal = state_bound(plan, id, &step.enc.post[&id]);
     let needed = step.cone.post_of(&BTreeSet::from([id]));
-    [
-        (
-            step.cut_query(Cuts::Products, None, &[], &goal, &step.want, false),
-            PRODUCTS_CUT,
-        ),
-        (
-            step.query(&needed, &[], &goal, &step.want, false),
-            BIT_PRECISE,
-        ),
-    ]
-    .into_iter()
-    .map(|(query, how)| Obligation {
-        name: format!("{} stays inside its range", s.name),
-        kind: Kind::Inductive,
-        query,
-        goal: Goal::StateBound(id),
-        line: s.span.start().line,
-        encoding: Some(how),
-    })
-    .collect()
+    step.cut_then_whole(&needed, &goal)
+        .into_iter()
+        .map(|(query, how)| Obligation {
+            name: format!("{} stays inside its range", s.name),
+            kind: Kind::Inductive,
+            query,
+            goal: Goal::StateBound(id),
+            line: s.span.start().line,
+            encoding: Some(how),
+        })
+        .collect()
 }
 
 /// Invariant `k` holds after one step: a portfolio of exact-term encodings, cheapest first,
@@ -73,16 +64,7 @@ pub(super) fn invariant(step: &Step, k: usize) -> Vec<Obligation> {
         let mut sigs = BTreeSet::new();
         inv.cond.post_signals(&mut sigs, true);
         let needed = step.cone.post_of(&sigs);
-        for (query, how) in [
-            (
-                step.cut_query(Cuts::Products, None, &[], &goal, &step.want, false),
-                PRODUCTS_CUT,
-            ),
-            (
-                step.query(&needed, &[], &goal, &step.want, false),
-                BIT_PRECISE,
-            ),
-        ] {
+        for (query, how) in step.cut_then_whole(&needed, &goal) {
             out.push(Obligation {
                 name: name.clone(),
                 kind: Kind::Inductive,

@@ -40,47 +40,32 @@ pub(super) fn obligations(step: &Step) -> Vec<Obligation> {
             val: id,
             local: !global,
         };
-        if global {
+        // The question in one or more encodings, cheapest first.
+        let encodings: Vec<(Query, &'static str)> = if global {
             // A load of the pre-state has a one-premise query; anything else is tried with
             // the products cut first (a clamp or a saturated store bounds most values
             // without the multipliers behind them), then whole.
-            let alone = pre_state_load(step, id).is_some();
-            let cut = (!alone).then(|| {
-                let q = step.cut_query(
-                    Cuts::Products,
-                    Some(id),
-                    &[],
-                    &global_goal(step, id),
-                    &step.want,
-                    false,
-                );
+            let cut = pre_state_load(step, id).is_none().then(|| {
+                let goal = global_goal(step, id);
+                let q = step.cut_query(Cuts::Products, Some(id), &[], &goal, &step.want, false);
                 (q, PRODUCTS_CUT)
             });
-            for (query, how) in cut
-                .into_iter()
+            cut.into_iter()
                 .chain([(global_val_query(step, id), BIT_PRECISE)])
-            {
-                out.push(Obligation {
-                    name: name.clone(),
-                    kind: Kind::Overflow,
-                    query,
-                    goal: goal.clone(),
-                    line: v.line,
-                    encoding: (!alone).then_some(how),
-                });
-            }
-            continue;
-        }
-        // A product's range, tried first in linear integer arithmetic (its McCormick envelope
-        // decides it in milliseconds), then bit for bit: z3 4.8 takes 10-60 s on one range
-        // query of a 32 x 32 -> 64-bit multiplier, and as long on it in non-linear integers.
-        let envelope = product_envelope_query(plan, id);
-        let several = envelope.is_some();
-        for (query, how) in envelope
-            .map(|q| (q, LINEAR.label))
-            .into_iter()
-            .chain([(local_val_query(plan, id), BIT_VECTOR)])
-        {
+                .collect()
+        } else {
+            // A product's range, tried first in linear integer arithmetic (its McCormick
+            // envelope decides it in milliseconds), then bit for bit: z3 4.8 takes 10-60 s on
+            // one range query of a 32 x 32 -> 64-bit multiplier, and as long on it in
+            // non-linear integers.
+            product_envelope_query(plan, id)
+                .map(|q| (q, LINEAR.label))
+                .into_iter()
+                .chain([(local_val_query(plan, id), BIT_VECTOR)])
+                .collect()
+        };
+        let several = encodings.len() > 1;
+        for (query, how) in encodings {
             out.push(Obligation {
                 name: name.clone(),
                 kind: Kind::Overflow,

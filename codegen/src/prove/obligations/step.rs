@@ -107,6 +107,20 @@ impl<'a> Step<'a> {
             .collect()
     }
 
+    /// Premises of the queries that assume inputs in range (properties): each input inside
+    /// its declared range.
+    fn input_premises(&self) -> Vec<String> {
+        let plan = self.plan;
+        let prog = &plan.prog;
+        prog.ids_of(SigKind::Input)
+            .map(|id| {
+                let (lo, hi) = plan.bounds(id);
+                let (t, w) = signed_view(plan, id, &smt::input_var(prog, id));
+                in_range(&t, w, lo, hi)
+            })
+            .collect()
+    }
+
     /// A whole-step query: premises (states, invariants, inputs in range if asked, lemmas for
     /// `needed`, `extra`) ⇒ `goal`, reporting `want` on a counterexample.
     pub fn query(
@@ -117,15 +131,9 @@ impl<'a> Step<'a> {
         want: &[String],
         inputs_in_range: bool,
     ) -> Query {
-        let plan = self.plan;
         let mut premises = self.state_premises();
         if inputs_in_range {
-            let prog = &plan.prog;
-            for id in prog.ids_of(SigKind::Input) {
-                let (lo, hi) = plan.bounds(id);
-                let (t, w) = signed_view(plan, id, &smt::input_var(prog, id));
-                premises.push(in_range(&t, w, lo, hi));
-            }
+            premises.extend(self.input_premises());
         }
         premises.extend(self.lemmas(needed, None));
         premises.extend(extra.iter().cloned());
@@ -137,6 +145,26 @@ impl<'a> Step<'a> {
 }
 
 impl Step<'_> {
+    /// The two bit-precise queries of a goal over the step (inputs arbitrary), cheapest
+    /// first: with the products cut ([`PRODUCTS_CUT`]), then whole with lemmas for `needed`
+    /// ([`BIT_PRECISE`]).
+    pub fn cut_then_whole(
+        &self,
+        needed: &BTreeSet<ValId>,
+        goal: &str,
+    ) -> [(Query, &'static str); 2] {
+        [
+            (
+                self.cut_query(Cuts::Products, None, &[], goal, &self.want, false),
+                PRODUCTS_CUT,
+            ),
+            (
+                self.query(needed, &[], goal, &self.want, false),
+                BIT_PRECISE,
+            ),
+        ]
+    }
+
     /// A whole-step query like [`Step::query`] in which the values that `cuts` selects (but
     /// `keep`, the goal's own value) are cut points: declared, not defined, and bounded by
     /// their intervals (lemmas, each an obligation of its own; see
@@ -175,12 +203,7 @@ impl Step<'_> {
         // holds (the GAC covariance's determinant: 0.2 s to 3 s for each range of P).
         let mut premises = self.state_premises_but(cuts == Cuts::Products);
         if inputs_in_range {
-            let prog = &plan.prog;
-            for id in prog.ids_of(SigKind::Input) {
-                let (lo, hi) = plan.bounds(id);
-                let (t, w) = signed_view(plan, id, &smt::input_var(prog, id));
-                premises.push(in_range(&t, w, lo, hi));
-            }
+            premises.extend(self.input_premises());
         }
         premises.extend(extra.iter().cloned());
         // Lemmas for what the goal, the premises and the lemmas' own path conditions reach.

@@ -53,7 +53,7 @@ pub fn run_all_grouped(
 }
 
 /// Like [`run_all_grouped`], where the queries marked in `small` (missing entries: not small)
-/// may share a solver process, [`BATCH`] at a time ([`super::batch`]: the same verdicts, a
+/// may share a solver process, 32 at a time (`solver/batch.rs`: the same verdicts, a
 /// fraction of the process starts). A query of a group that holds a small query runs after
 /// every batch of its solver: it is the small query's fallback, and usually cancelled by its
 /// proof.
