@@ -350,6 +350,14 @@ pub fn measure(tokens: &TokenStream) -> Result<(usize, usize)> {
             }
             TokenTree::Ident(i) => {
                 let word = i.to_string();
+                if let Some(plain) = word.strip_prefix("r#") {
+                    return Err(Diag::new(span, format!("raw identifier `{word}`"))
+                        .label("not allowed in a spec")
+                        .help(format!(
+                            "write `{plain}` without `r#`; a name that is a Rust keyword \
+                             cannot be used: choose another"
+                        )));
+                }
                 if top.prev == Prev::Block && word != "else" && word != "as" {
                     // A new statement after a block (`if .. { .. } y = x;`).
                     top.ops = 0;
@@ -488,5 +496,24 @@ mod tests {
             .expect_err("else-if chain")
             .message
             .contains("nests more than"));
+    }
+
+    #[test]
+    fn raw_identifiers_are_refused_where_they_stand() {
+        // Found by the fuzzer: `invariant r#x: ..` reached the Kani emitter as the name
+        // `inv_r#x`, which is no identifier, and the emitter panicked.
+        let src = "controller c {\n  input a: [0.0, 1.0];\n  invariant r#product_at_least_one: a >= 0.0;\n}\n";
+        let Err(d) = crate::lang::parse::parse_str(src) else {
+            panic!("a raw identifier parsed");
+        };
+        assert_eq!(d.message, "raw identifier `r#product_at_least_one`");
+        assert_eq!(d.line_col(), (3, 13));
+        assert!(d
+            .help
+            .unwrap_or_default()
+            .contains("write `product_at_least_one`"));
+        let t = |s: &str| nesting(&s.parse().expect("lexes"));
+        assert!(t("y = r#x + 1.0;").is_err(), "in an expression too");
+        t("y = x + 1.0;").expect("plain names pass");
     }
 }
