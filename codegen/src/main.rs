@@ -137,6 +137,13 @@ fn run(cli: Cli) -> CliResult {
             cargo: &cargo,
             grace: grace_secs,
         }),
+        Cmd::C2d {
+            num,
+            den,
+            period,
+            beta,
+            name,
+        } => cli::c2d::run(&num, &den, period, &beta, &name),
         Cmd::Targets => cli::targets::run(),
         Cmd::Plants { plant } => cli::plants::run(plant.as_deref()),
     }

@@ -344,3 +344,50 @@ fn prove_honours_its_total_timeout_and_reports_progress() {
         "{err}"
     );
 }
+
+#[test]
+fn c2d_prints_every_paper_beta_and_refuses_bad_input() {
+    let plant = ["--num", "-3,150", "--den", "1,20,550", "--period", "0.0839"];
+    let o = qloop(&[&["c2d"][..], &plant, &["--beta", "paper"]].concat());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    assert_eq!(out.matches("order 2 (ZOH)").count(), 1, "{out}");
+    assert_eq!(out.matches("order 3 (the hold's pole").count(), 6, "{out}");
+    // The ZOH model's coefficients are scipy's (plant/tests/oracle/froh_scipy.toml).
+    let line = |name: &str| -> f64 {
+        let l = out
+            .lines()
+            .find(|l| l.trim_start().starts_with(&format!("const {name}:")))
+            .unwrap_or_else(|| panic!("no {name}:\n{out}"));
+        l.split(':')
+            .nth(1)
+            .unwrap()
+            .trim()
+            .trim_end_matches(';')
+            .parse()
+            .unwrap()
+    };
+    assert!((line("H2_A1") - 0.17931612028459326).abs() < 1e-12);
+    assert!((line("H2_B2") - 0.18951701697100443).abs() < 1e-12);
+    assert_eq!(
+        line("H3_A3"),
+        0.0,
+        "the hold's pole is exactly at the origin"
+    );
+    for (args, needle) in [
+        (vec!["--beta", "1.5"], "outside [−1, 1]"),
+        (vec!["--beta", "x"], "`x` is not a number"),
+        (vec!["--name", "1H"], "not a spec identifier"),
+    ] {
+        let o = qloop(&[&["c2d"][..], &plant, &args].concat());
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        assert!(
+            text(&o.stderr).contains(needle),
+            "{args:?}: {}",
+            text(&o.stderr)
+        );
+    }
+    let o = qloop(&["c2d", "--num", "1,0,0", "--den", "1,1", "--period", "0.1"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("improper"), "{}", text(&o.stderr));
+}

@@ -132,6 +132,36 @@ fn top_level_usage() {
 }
 
 #[test]
+fn c2d_failures() {
+    let plant = ["c2d", "--num", "-3,150", "--den", "1,20,550", "--period", "0.0839"];
+    expect_stdout("c2d: done", &run(&plant, &[]), 0, &["order 2 (ZOH)"]);
+    expect(
+        "c2d: missing flag",
+        &run(&["c2d", "--num", "1", "--period", "0.1"], &[]),
+        2,
+        &["--den <DEN>"],
+    );
+    expect(
+        "c2d: β outside [-1, 1]",
+        &run(&[&plant[..], &["--beta", "-0.5,3"]].concat(), &[]),
+        2,
+        &["β = 3 is outside [−1, 1]"],
+    );
+    expect(
+        "c2d: not a period",
+        &run(&["c2d", "--num", "1", "--den", "1,1", "--period", "-1"], &[]),
+        2,
+        &["positive number of seconds"],
+    );
+    expect(
+        "c2d: static gain",
+        &run(&["c2d", "--num", "1,0", "--den", "2", "--period", "0.1"], &[]),
+        2,
+        &["the denominator is a constant"],
+    );
+}
+
+#[test]
 fn check_failures() {
     let d = scratch("check");
     let good = spec("acc_fixed_gain.qloop");

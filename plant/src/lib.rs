@@ -20,6 +20,7 @@ pub mod contract;
 pub mod controller;
 pub mod discrete;
 pub mod finishing;
+pub mod froh;
 pub mod grinding;
 pub mod metrics;
 pub mod milling;

@@ -232,6 +232,38 @@ pub enum Cmd {
         #[arg(long, default_value_t = 300, hide = true)]
         grace_secs: u64,
     },
+    /// Discretise a continuous transfer function under a β fractional-order hold (003 eqs.
+    /// 4-5; β = 0 is the ZOH, β = 1 the causal FOH), and print the discrete coefficients as
+    /// a difference equation and as `const` lines to paste into a spec.
+    #[command(allow_negative_numbers = true)]
+    C2d {
+        /// Numerator coefficients, highest power of s first, comma-separated (e.g. `-3,150`).
+        #[arg(
+            long,
+            value_delimiter = ',',
+            required = true,
+            allow_hyphen_values = true
+        )]
+        num: Vec<f64>,
+        /// Denominator coefficients, highest power of s first (e.g. `1,20,550`).
+        #[arg(
+            long,
+            value_delimiter = ',',
+            required = true,
+            allow_hyphen_values = true
+        )]
+        den: Vec<f64>,
+        /// Sampling period in seconds.
+        #[arg(long)]
+        period: f64,
+        /// Correcting gains β in [-1, 1], comma-separated; `paper` for 003's set
+        /// {-0.5, -0.3, 0, 0.3, 0.5, 0.8, 1}.
+        #[arg(long, default_value = "0", allow_hyphen_values = true)]
+        beta: String,
+        /// Prefix of the `const` names printed for a spec.
+        #[arg(long, default_value = "H")]
+        name: String,
+    },
     /// List the built-in cost-model targets.
     Targets,
     /// The plants' contracts: what each measures and is commanded (with units), its scenario

@@ -11,12 +11,14 @@
 //! | `demo` | [`demo`] |
 //! | `bench` | [`bench`] |
 //! | `kani` | [`kani`] (runs the Kani harnesses of a crate) |
+//! | `c2d` | [`c2d`] (β-FROH discretisation for a spec's constants) |
 //! | `targets` | [`targets`] |
 //! | `plants` | [`plants`] (the plant contracts; `sim` binds a spec to one: [`bind`]) |
 
 pub mod args;
 pub mod bench;
 pub mod bind;
+pub mod c2d;
 pub mod check;
 pub mod demo;
 pub mod error;
