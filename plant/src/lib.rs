@@ -24,6 +24,7 @@ pub mod froh;
 pub mod grinding;
 pub mod metrics;
 pub mod milling;
+pub mod multimodel;
 pub mod plant;
 pub mod plot;
 pub mod runner;
