@@ -133,7 +133,9 @@ fn top_level_usage() {
 
 #[test]
 fn c2d_failures() {
-    let plant = ["c2d", "--num", "-3,150", "--den", "1,20,550", "--period", "0.0839"];
+    let plant = [
+        "c2d", "--num", "-3,150", "--den", "1,20,550", "--period", "0.0839",
+    ];
     expect_stdout("c2d: done", &run(&plant, &[]), 0, &["order 2 (ZOH)"]);
     expect(
         "c2d: missing flag",
@@ -149,13 +151,19 @@ fn c2d_failures() {
     );
     expect(
         "c2d: not a period",
-        &run(&["c2d", "--num", "1", "--den", "1,1", "--period", "-1"], &[]),
+        &run(
+            &["c2d", "--num", "1", "--den", "1,1", "--period", "-1"],
+            &[],
+        ),
         2,
         &["positive number of seconds"],
     );
     expect(
         "c2d: static gain",
-        &run(&["c2d", "--num", "1,0", "--den", "2", "--period", "0.1"], &[]),
+        &run(
+            &["c2d", "--num", "1,0", "--den", "2", "--period", "0.1"],
+            &[],
+        ),
         2,
         &["the denominator is a constant"],
     );
