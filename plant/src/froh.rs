@@ -190,29 +190,20 @@ pub fn froh(g: &ContinuousTf, period: f64, beta: f64) -> Result<DiscreteTf, C2dE
     if !(-1.0..=1.0).contains(&beta) {
         return Err(C2dError::Beta(beta));
     }
-    let (a, b, c, d) = canonical(g)?;
-    let n = a.len();
-    // Van Loan: one exponential gives Φ, Γ₀ and Γ₁.
-    let mut m = DMatrix::<f64>::zeros(n + 2, n + 2);
-    for i in 0..n {
-        for j in 0..n {
-            m[(i, j)] = a[i][j] * period;
-        }
-        m[(i, n)] = b[i] * period;
-    }
-    m[(n, n + 1)] = 1.0;
-    let e = m.exp();
+    let hm = hold_matrices(g, period)?;
+    let n = hm.phi.nrows();
+    let (c, d) = (hm.c.clone(), hm.d);
     // The discrete model: state x (n), plus u_{k−1} when β ≠ 0.
     let dim = if beta == 0.0 { n } else { n + 1 };
     let mut phi = DMatrix::<f64>::zeros(dim, dim);
     let mut gam = vec![0.0; dim];
     for i in 0..n {
         for j in 0..n {
-            phi[(i, j)] = e[(i, j)];
+            phi[(i, j)] = hm.phi[(i, j)];
         }
-        gam[i] = e[(i, n)] + beta * e[(i, n + 1)];
+        gam[i] = hm.gamma0[i] + beta * hm.gamma1[i];
         if dim > n {
-            phi[(i, n)] = -beta * e[(i, n + 1)];
+            phi[(i, n)] = -beta * hm.gamma1[i];
         }
     }
     if dim > n {
@@ -243,6 +234,69 @@ pub fn froh(g: &ContinuousTf, period: f64, beta: f64) -> Result<DiscreteTf, C2dE
              large for f64; choose a shorter period"
         )))
     }
+}
+
+/// The exact sampled model of `g` under a β-FROH, for any β (module docs): with `G` in
+/// controllable canonical form `(A, B, C, D)`,
+/// `x_{k+1} = Φ·x_k + Γ₀·u_k + β·Γ₁·(u_k − u_{k−1})` and `y_k = C·x_k + D·u_k`.
+#[derive(Clone, Debug)]
+pub struct HoldMatrices {
+    /// `Φ = e^{AT}`.
+    pub phi: DMatrix<f64>,
+    /// `Γ₀ = ∫₀ᵀ e^{Aσ} dσ·B`.
+    pub gamma0: Vec<f64>,
+    /// `Γ₁ = ∫₀ᵀ e^{A(T−t)}·B·t/T dt`.
+    pub gamma1: Vec<f64>,
+    /// `C`.
+    pub c: Vec<f64>,
+    /// `D`.
+    pub d: f64,
+}
+
+impl HoldMatrices {
+    /// The next state from `x` under the hold of `u` (this sample) after `u_prev`.
+    pub fn step(&self, x: &[f64], u: f64, u_prev: f64, beta: f64) -> Vec<f64> {
+        let n = x.len();
+        (0..n)
+            .map(|i| {
+                (0..n).map(|j| self.phi[(i, j)] * x[j]).sum::<f64>()
+                    + self.gamma0[i] * u
+                    + beta * self.gamma1[i] * (u - u_prev)
+            })
+            .collect()
+    }
+
+    /// The output at a sample instant, `C·x + D·u`.
+    pub fn output(&self, x: &[f64], u: f64) -> f64 {
+        self.c.iter().zip(x).map(|(c, x)| c * x).sum::<f64>() + self.d * u
+    }
+}
+
+/// Φ, Γ₀ and Γ₁ of `g` at `period`, from one matrix exponential (Van Loan; module docs).
+pub fn hold_matrices(g: &ContinuousTf, period: f64) -> Result<HoldMatrices, C2dError> {
+    if !(period.is_finite() && period > 0.0) {
+        return Err(C2dError::Value(format!(
+            "the period must be a positive number of seconds, not {period}"
+        )));
+    }
+    let (a, b, c, d) = canonical(g)?;
+    let n = a.len();
+    let mut m = DMatrix::<f64>::zeros(n + 2, n + 2);
+    for i in 0..n {
+        for j in 0..n {
+            m[(i, j)] = a[i][j] * period;
+        }
+        m[(i, n)] = b[i] * period;
+    }
+    m[(n, n + 1)] = 1.0;
+    let e = m.exp();
+    Ok(HoldMatrices {
+        phi: e.view((0, 0), (n, n)).into_owned(),
+        gamma0: (0..n).map(|i| e[(i, n)]).collect(),
+        gamma1: (0..n).map(|i| e[(i, n + 1)]).collect(),
+        c,
+        d,
+    })
 }
 
 /// Controllable canonical form `(A, B, C, D)` of `g`, with the denominator made monic.
