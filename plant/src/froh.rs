@@ -179,11 +179,6 @@ pub fn zoh(g: &ContinuousTf, period: f64) -> Result<DiscreteTf, C2dError> {
 /// The β-FROH equivalent of `g` at period `period` (003 eqs. 4–5; module docs): order n for
 /// β = 0 (the ZOH model), n + 1 otherwise (the hold's pole at the origin).
 pub fn froh(g: &ContinuousTf, period: f64, beta: f64) -> Result<DiscreteTf, C2dError> {
-    if !(period.is_finite() && period > 0.0) {
-        return Err(C2dError::Value(format!(
-            "the period must be a positive number of seconds, not {period}"
-        )));
-    }
     if !beta.is_finite() {
         return Err(C2dError::Value(format!("β must be a number, not {beta}")));
     }
