@@ -21,15 +21,17 @@
 //! z = −1.035), so no zero is cancelled: `B⁻ = B`, and the law `R·u = T·y_r − S·y` places
 //! the closed-loop characteristic polynomial `A·R + B·S` on the reference model's poles
 //! times an observer polynomial `A_o`:
-//! * ZOH: `R = z + r₁`, `S = s₀z + s₁`, `A_o = z`, `A·R + B·S = z·A_m'`;
+//! * ZOH: `R = z + r₁`, `S = s₀z + s₁`, `A_o = z − ρ`, `A·R + B·S = A_m'·A_o`;
 //! * β ≠ 0: `R = z² + r₁z + r₂`, `S = s₀z² + s₁z` (`s₂ = 0` is forced by the origin pole:
-//!   the z⁰ coefficient of the equation reads `b₃s₂ = 0`), `A_o = z²`,
-//!   `A·R + B·S = z³·A_m'`, i.e. after dividing by z:
-//!   `(z² + a₁z + a₂)·R + B·(s₀z + s₁) = z²·A_m'`,
+//!   the z⁰ coefficient of the equation reads `b₃s₂ = 0`), `A_o = z·(z − ρ)`,
+//!   `A·R + B·S = z·A_m'·A_o`, i.e. after dividing by z:
+//!   `(z² + a₁z + a₂)·R + B·(s₀z + s₁) = z·(z − ρ)·A_m'`,
 //!
 //! where `A_m' = z² + m₁z + m₂` is the reference model `98.62/(s² + 15.89s + 98.62)`
-//! discretised (its poles do not depend on the hold). `T = t₀·A_o` with
-//! `t₀ = A_m'(1)/B(1)` gives unit DC gain from the reference force to the force. The linear
+//! discretised (its poles do not depend on the hold), and ρ the observer root (003 asks only
+//! that A_0 be stable and monic; ρ = 0 is deadbeat). `T = t₀·A_o` with
+//! `t₀ = A_m'(1)/B(1)` gives `y/y_r = t₀·B/(z^d·A_m')` (d = 1 for β ≠ 0): the observer
+//! cancels from reference to force, and the DC gain is 1. The linear
 //! system is the Sylvester system of (A, B); its determinant vanishes exactly when A and B
 //! share a root (003: "provided that [A, B] are co-prime"). When it is too small, the
 //! controller keeps its last solution.
@@ -77,6 +79,9 @@ pub struct MultiModelParams {
     pub min_det: f64,
     /// Whether the estimators adapt (false: every controller stays the initial model's).
     pub adapt: bool,
+    /// The observer root ρ: `A_o = z − ρ` (ZOH) or `z·(z − ρ)` (β ≠ 0); 0 is deadbeat.
+    /// 003 asks only that A_0 be stable and monic.
+    pub observer: f64,
 }
 
 impl Default for MultiModelParams {
@@ -97,6 +102,7 @@ impl Default for MultiModelParams {
             reference_model: ContinuousTf::paper_reference_model(),
             min_det: 1e-9,
             adapt: true,
+            observer: 0.0,
         }
     }
 }
@@ -133,6 +139,8 @@ pub struct MultiModel {
     y_hist: [f64; 2],
     u_hist: [f64; 3],
     switches: usize,
+    /// The reference at the previous sample (0 before the first).
+    r_prev: f64,
     /// The Sylvester determinants of the initial models.
     det0: Vec<f64>,
 }
@@ -157,7 +165,7 @@ impl MultiModel {
                 law: Vec::new(),
                 errs: VecDeque::new(),
             };
-            pair.law = solve(&pair.theta, am, p.min_det)
+            pair.law = solve(&pair.theta, am, p.observer, p.min_det)
                 .ok_or("the initial model's A and B are not co-prime")?;
             pairs.push(pair);
         }
@@ -168,6 +176,7 @@ impl MultiModel {
             y_hist: [0.0; 2],
             u_hist: [0.0; 3],
             switches: 0,
+            r_prev: 0.0,
             det0: pairs
                 .iter()
                 .map(|p| sylvester(&p.theta).determinant())
@@ -214,7 +223,12 @@ impl MultiModel {
     /// origin pole for β ≠ 0) minus its target `z^{deg}·A_m'`: all zeros when the
     /// Diophantine equation is solved exactly.
     pub fn placement_residual(&self, l: usize) -> Vec<f64> {
-        residual(&self.pairs[l].theta, &self.pairs[l].law, self.am)
+        residual(
+            &self.pairs[l].theta,
+            &self.pairs[l].law,
+            self.am,
+            self.p.observer,
+        )
     }
 
     fn regressor(&self, nb: usize) -> DVector<f64> {
@@ -226,14 +240,16 @@ impl MultiModel {
 
 /// `(r₁[, r₂], s₀, s₁, t₀)` solving the Diophantine equation of the module docs for
 /// θ, or `None` when the Sylvester determinant is below `min_det`.
-fn solve(theta: &DVector<f64>, am: (f64, f64), min_det: f64) -> Option<Vec<f64>> {
+fn solve(theta: &DVector<f64>, am: (f64, f64), rho: f64, min_det: f64) -> Option<Vec<f64>> {
     let (a1, a2) = (theta[0], theta[1]);
     let b: Vec<f64> = theta.iter().skip(2).copied().collect();
     let (m1, m2) = am;
+    let c = target(am, rho);
     let mat = sylvester(theta);
     let mut rhs = DVector::zeros(mat.nrows());
-    rhs[0] = m1 - a1;
-    rhs[1] = m2 - a2;
+    rhs[0] = c[0] - a1;
+    rhs[1] = c[1] - a2;
+    rhs[2] = c[2];
     if mat.determinant().abs() < min_det {
         return None;
     }
@@ -245,6 +261,12 @@ fn solve(theta: &DVector<f64>, am: (f64, f64), min_det: f64) -> Option<Vec<f64>>
     let mut law: Vec<f64> = x.iter().copied().collect();
     law.push((1.0 + m1 + m2) / b_at_1);
     Some(law)
+}
+
+/// `[c₁, c₂, c₃]` of `(z² + m₁z + m₂)(z − ρ) = z³ + c₁z² + c₂z + c₃`: the closed-loop
+/// polynomial of the ZOH law (for β ≠ 0 it is that times z², reduced by z).
+fn target(am: (f64, f64), rho: f64) -> [f64; 3] {
+    [am.0 - rho, am.1 - rho * am.0, -rho * am.1]
 }
 
 /// The Sylvester matrix of the Diophantine equation (module docs) for θ: unknowns
@@ -271,20 +293,21 @@ fn sylvester(theta: &DVector<f64>) -> DMatrix<f64> {
 }
 
 /// Coefficients of `A·R + B·S − target` (module docs), highest power first.
-fn residual(theta: &DVector<f64>, law: &[f64], am: (f64, f64)) -> Vec<f64> {
+fn residual(theta: &DVector<f64>, law: &[f64], am: (f64, f64), rho: f64) -> Vec<f64> {
+    let c = target(am, rho);
     let a = [1.0, theta[0], theta[1]];
     let b: Vec<f64> = theta.iter().skip(2).copied().collect();
     let (r, s, target) = if b.len() == 2 {
         (
             vec![1.0, law[0]],
             vec![law[1], law[2]],
-            vec![1.0, am.0, am.1, 0.0],
+            vec![1.0, c[0], c[1], c[2]],
         )
     } else {
         (
             vec![1.0, law[0], law[1]],
             vec![law[2], law[3]],
-            vec![1.0, am.0, am.1, 0.0, 0.0],
+            vec![1.0, c[0], c[1], c[2], 0.0],
         )
     };
     let mut out = mul(&a, &r);
@@ -338,7 +361,7 @@ impl Controller for MultiModel {
             let den = self.p.lambda + phi.dot(&pphi);
             pair.theta += &pphi * (e / den);
             pair.p = (&pair.p - &pphi * pphi.transpose() / den) / self.p.lambda;
-            if let Some(law) = solve(&pair.theta, self.am, self.p.min_det) {
+            if let Some(law) = solve(&pair.theta, self.am, self.p.observer, self.p.min_det) {
                 pair.law = law;
             }
         }
@@ -357,10 +380,13 @@ impl Controller for MultiModel {
         // The active law: R·u = t₀·A_o·y_r − S·y.
         let law = &self.pairs[self.active].law;
         let (y1, u) = (self.y_hist[0], self.u_hist);
+        // T·y_r = t₀·(y_r,k − ρ·y_r,k−1): the reference steps from 0 at the first sample.
+        let tr = law[law.len() - 1] * (self.p.force_ref - self.p.observer * self.r_prev);
+        self.r_prev = self.p.force_ref;
         let raw = if law.len() == 4 {
-            -law[0] * u[0] + law[3] * self.p.force_ref - law[1] * y - law[2] * y1
+            -law[0] * u[0] + tr - law[1] * y - law[2] * y1
         } else {
-            -law[0] * u[0] - law[1] * u[1] + law[4] * self.p.force_ref - law[2] * y - law[3] * y1
+            -law[0] * u[0] - law[1] * u[1] + tr - law[2] * y - law[3] * y1
         };
         let feed = raw.clamp(self.p.feed.0, self.p.feed.1);
         self.u_hist = [feed, u[0], u[1]];
