@@ -92,7 +92,7 @@ fn reference_law(a1: f64, a2: f64, b1: f64, b2: f64) -> (f64, f64, f64, f64) {
 }
 
 fn exact(bits: i32, frac: u32) -> BigRational {
-    BigRational::new(bits.into(), (num_bigint::BigInt::from(1) << frac).into())
+    BigRational::new(bits.into(), num_bigint::BigInt::from(1) << frac)
 }
 
 #[test]
