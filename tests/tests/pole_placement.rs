@@ -1,5 +1,6 @@
-//! Division-free model-following pole placement for one ZOH estimate (tests/pole_placement.qloop,
-//! 003_780323f84df40eb0.txt eqs. 7-9), the per-model part of issue 17's controller:
+//! Division-free model-following pole placement for one ZOH estimate (tests/pole_placement.qloop)
+//! and one β-FROH estimate (tests/pole_placement_froh.qloop, 4 × 4), 003_780323f84df40eb0.txt
+//! eqs. 7-9, the per-model part of issue 17's controller:
 //!
 //! * proof: every obligation is proved by both solvers, among them the invariant that the
 //!   stored law places the poles of the model it was solved for (each coefficient within TOL,
@@ -19,6 +20,7 @@ use qloop::Plan;
 use rand::{Rng, SeedableRng};
 
 qloop_macros::controller!("tests/pole_placement.qloop");
+qloop_macros::controller!("tests/pole_placement_froh.qloop");
 
 const M1: f64 = -0.9012686441554565;
 const M2: f64 = 0.26363993219117265;
@@ -45,6 +47,44 @@ fn the_placement_invariant_and_claim_are_proved() {
             "no obligation for {name}"
         );
     }
+}
+
+#[test]
+fn the_froh_placement_invariant_and_claim_are_proved() {
+    let p = froh_plan();
+    let r = qloop::prove::prove(&p, &qloop_tests::both_solvers(120_000), &mut |_| {});
+    assert!(r.proved(), "{}", r.table(&p));
+    for name in [
+        "law_places_the_poles",
+        "placement_near_the_model_z3",
+        "placement_near_the_model_z2",
+        "placement_near_the_model_z1",
+        "placement_near_the_model_z0",
+    ] {
+        assert!(
+            r.outcomes.iter().any(|o| o.ob.name.contains(name)),
+            "no obligation for {name}"
+        );
+    }
+}
+
+fn froh_plan() -> Plan {
+    qloop::compile_str(
+        include_str!("pole_placement_froh.qloop"),
+        &qloop::Target::default(),
+    )
+    .expect("pole_placement_froh.qloop compiles")
+}
+
+/// A signal's one-step error bound as `qloop check` claims it.
+fn claimed_err(p: &Plan, name: &str) -> f64 {
+    let i = p
+        .prog
+        .signals
+        .iter()
+        .position(|s| s.name == name)
+        .unwrap_or_else(|| panic!("{name}"));
+    p.summary[i].err
 }
 
 #[test]
@@ -98,15 +138,7 @@ fn exact(bits: i32, frac: u32) -> BigRational {
 #[test]
 fn compiled_law_solves_the_sylvester_system() {
     let p = plan();
-    let err = |name: &str| {
-        let i = p
-            .prog
-            .signals
-            .iter()
-            .position(|s| s.name == name)
-            .unwrap_or_else(|| panic!("{name}"));
-        p.summary[i].err
-    };
+    let err = |name: &str| claimed_err(&p, name);
     let (e_r1, e_s0, e_s1) = (err("r1"), err("s0"), err("s1"));
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
     let (mut accepted, mut checked) = (0, 0);
@@ -182,6 +214,129 @@ fn compiled_law_solves_the_sylvester_system() {
     }
     assert!(
         checked > 300 && accepted >= checked,
+        "{checked} checked, {accepted} accepted"
+    );
+}
+
+/// The 4 × 4 Sylvester system of tests/pole_placement_froh.qloop, in f64 by Gaussian
+/// elimination with partial pivoting (an independent route from the spec's Cramer's rule):
+/// (r1, r2, s0, s1) and its determinant.
+fn reference_froh_law(a: [f64; 5]) -> ([f64; 4], f64) {
+    let [a1, a2, b1, b2, b3] = a;
+    let mut m = [
+        [1.0, 0.0, b1, 0.0, M1 - a1],
+        [a1, 1.0, b2, b1, M2 - a2],
+        [a2, a1, b3, b2, 0.0],
+        [0.0, a2, 0.0, b3, 0.0],
+    ];
+    let mut det = 1.0;
+    for c in 0..4 {
+        let p = (c..4)
+            .max_by(|&i, &j| m[i][c].abs().total_cmp(&m[j][c].abs()))
+            .expect("rows");
+        if p != c {
+            m.swap(p, c);
+            det = -det;
+        }
+        det *= m[c][c];
+        let pivot = m[c];
+        for row in m.iter_mut().skip(c + 1) {
+            let f = row[c] / pivot[c];
+            for (x, p) in row.iter_mut().zip(pivot).skip(c) {
+                *x -= f * p;
+            }
+        }
+    }
+    let mut x = [0.0; 4];
+    for r in (0..4).rev() {
+        let s: f64 = (r + 1..4).map(|k| m[r][k] * x[k]).sum();
+        x[r] = (m[r][4] - s) / m[r][r];
+    }
+    (x, det)
+}
+
+#[test]
+fn compiled_froh_law_solves_the_sylvester_system() {
+    let p = froh_plan();
+    let errs = ["r1", "r2", "s0", "s1"].map(|n| claimed_err(&p, n));
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    let (mut accepted, mut checked) = (0, 0);
+    for _ in 0..3000 {
+        let ranges = [
+            (-1.5, 0.5),
+            (-0.5, 0.5),
+            (-0.5, 0.5),
+            (-0.5, 0.5),
+            (-0.5, 0.5),
+        ];
+        let bits = ranges.map(|(lo, hi)| {
+            rng.random_range((lo * 2f64.powi(28)) as i32..=(hi * 2f64.powi(28)) as i32)
+        });
+        let v = bits.map(|b| b as f64 * 2f64.powi(-28));
+        let mut c = pole_placement_froh::Controller::new();
+        let before = c.states();
+        let zero = FixedI32::<U28>::ZERO;
+        let f = |b: i32| FixedI32::<U28>::from_bits(b);
+        c.step(pole_placement_froh::Inputs {
+            a1: f(bits[0]),
+            a2: f(bits[1]),
+            b1: f(bits[2]),
+            b2: f(bits[3]),
+            b3: f(bits[4]),
+            da1: zero,
+            da2: zero,
+            db1: zero,
+            db2: zero,
+            db3: zero,
+        });
+        let s = c.states();
+        let stored = [s.la1, s.la2, s.lb1, s.lb2, s.lb3].map(|x| x.to_bits());
+        let updated = stored == bits;
+        let (x, det) = reference_froh_law(v);
+        let inside = x.iter().all(|c| c.abs() <= LAW_MAX - 0.01);
+        if (DMIN * 1.001..=0.999).contains(&det) && inside {
+            checked += 1;
+            assert!(updated, "{v:?}: a law well inside its range was refused");
+            let got = [s.r1, s.r2, s.s0, s.s1].map(|g| g.to_num::<f64>());
+            for i in 0..4 {
+                assert!(
+                    (got[i] - x[i]).abs() <= errs[i] + 1e-9,
+                    "{v:?}: coefficient {i} = {}, the Sylvester solution {}, claimed error {}",
+                    got[i],
+                    x[i],
+                    errs[i]
+                );
+            }
+        }
+        if updated {
+            accepted += 1;
+            let [a1, a2, b1, b2, b3] = bits.map(|b| exact(b, 28));
+            let [r1, r2, s0, s1] = [s.r1, s.r2, s.s0, s.s1].map(|x| exact(x.to_bits(), 24));
+            let m = |x: f64| BigRational::from_float(x).expect("finite");
+            let coeffs = [
+                &r1 + &a1 + &b1 * &s0 - m(M1),
+                &r2 + &a1 * &r1 + &a2 + &b2 * &s0 + &b1 * &s1 - m(M2),
+                &a1 * &r2 + &a2 * &r1 + &b3 * &s0 + &b2 * &s1,
+                &a2 * &r2 + &b3 * &s1,
+            ];
+            for (i, k) in coeffs.iter().enumerate() {
+                assert!(
+                    k.abs() <= m(TOL),
+                    "{v:?}: coefficient {i} off by {}",
+                    k.to_f64().unwrap_or(f64::NAN)
+                );
+            }
+        } else {
+            let unchanged = s.r1 == before.r1 && s.r2 == before.r2 && s.s0 == before.s0;
+            assert!(
+                unchanged && s.s1 == before.s1,
+                "a refused law changed the state"
+            );
+        }
+    }
+    eprintln!("froh: {checked} checked, {accepted} accepted of 3000");
+    assert!(
+        checked > 100 && accepted >= checked,
         "{checked} checked, {accepted} accepted"
     );
 }
