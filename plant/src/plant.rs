@@ -6,7 +6,9 @@ use crate::scenario::Scenario;
 use crate::sensor::SensorParams;
 
 /// A continuous-time plant, integrated by the runner at a substep of the controller period.
-/// The controller's command is applied with zero-order hold.
+/// The controller's command is applied with zero-order hold, or, for a controller with a
+/// [`HOLD_BETA`](crate::runner::HOLD_BETA) output, as one command per substep on the
+/// fractional-order hold's line.
 pub trait Plant: Send {
     /// Short name (`turning`, ...).
     fn name(&self) -> &'static str;

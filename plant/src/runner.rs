@@ -87,7 +87,17 @@ struct Loop {
     extra: Vec<(&'static str, f64)>,
     /// Unit conversions.
     binding: Binding,
+    /// The fractional-order hold, when the controller has an output [`HOLD_BETA`]: its index.
+    hold: Option<usize>,
+    /// The command of this period and of the last, in plant units (for the hold).
+    cmd: (f64, f64),
 }
+
+/// The controller output that selects a β fractional-order hold between controller and
+/// plant (003_780323f84df40eb0.txt, eqs. 4-5; `crate::froh`): over each period the plant is
+/// driven with `u_k + β·(u_k − u_{k−1})·(t − kT)/T` instead of `u_k` held. β is clamped to
+/// [−1, 1], where 003 defines the hold.
+pub const HOLD_BETA: &str = "hold_beta";
 
 impl Loop {
     fn new(
@@ -115,8 +125,22 @@ impl Loop {
                     (n.0, default.map_or(0.0, |c| c.default))
                 })
                 .collect(),
+            hold: sig.outputs.iter().position(|o| o.0 == HOLD_BETA),
+            cmd: (0.0, 0.0),
             ctl,
             binding,
+        }
+    }
+
+    /// Before substep `j` of `n` of the period starting at `t`: with a hold, the command
+    /// on the hold's line at the substep's midpoint (a staircase of `n` steps).
+    fn hold_substep(&mut self, t: f64, j: usize, n: usize, h: f64) {
+        if let Some(i) = self.hold {
+            let beta = self.y[i].clamp(-1.0, 1.0);
+            let (u, prev) = self.cmd;
+            let frac = (j as f64 + 0.5) / n as f64;
+            self.plant
+                .command_at(t + j as f64 * h, u + beta * (u - prev) * frac);
         }
     }
 
@@ -128,8 +152,9 @@ impl Loop {
         }
         self.ctl.step(&self.x, &mut self.y);
         self.ctl.states(&mut self.s);
-        self.plant
-            .command_at(t, self.y[0] * self.binding.command_scale);
+        let u = self.y[0] * self.binding.command_scale;
+        self.cmd = (u, self.cmd.0);
+        self.plant.command_at(t, u);
     }
 
     fn record(&self, sc: &Scenario, t: f64, row: &mut Vec<f64>) {
@@ -183,7 +208,8 @@ fn loop_columns(plant: &dyn Plant, c: &dyn Controller, suffix: &str) -> Vec<Stri
 }
 
 /// Drives `loops` in lock step through `sc`: sample every period, then integrate each plant
-/// over the period in `substeps` steps with the command held.
+/// over the period in `substeps` steps with the command held (or, for a controller with a
+/// [`HOLD_BETA`] output, on the fractional-order hold's line, one value per substep).
 fn drive(
     loops: &mut [Loop],
     sc: &Scenario,
@@ -211,6 +237,7 @@ fn drive(
         trace.rows.push(row);
         for j in 0..substeps {
             for l in loops.iter_mut() {
+                l.hold_substep(t, j, substeps, h);
                 l.plant.advance(sc, t + j as f64 * h, h);
             }
         }
@@ -294,5 +321,118 @@ mod tests {
         // The reference half differs (a different controller), so the check can fail.
         let fc = paired.col("fc").unwrap();
         assert_ne!(fc, paired.col("fc_ref").unwrap());
+    }
+
+    /// A plant that only logs the commands it is given.
+    #[derive(Clone)]
+    struct Log(std::sync::Arc<std::sync::Mutex<Vec<(f64, f64)>>>);
+
+    impl Plant for Log {
+        fn name(&self) -> &'static str {
+            "log"
+        }
+        fn measured(&self) -> crate::controller::Named {
+            ("f", "kN")
+        }
+        fn command(&self) -> crate::controller::Named {
+            ("u", "mm/s")
+        }
+        fn describe(&self) -> (&'static str, &'static str) {
+            ("nothing", "logged")
+        }
+        fn channels(&self) -> Vec<crate::contract::Channel> {
+            Vec::new()
+        }
+        fn sensor(&self) -> crate::sensor::SensorParams {
+            crate::sensor::SensorParams {
+                gain: 1.0,
+                noise_sigma: 0.0,
+                range: (-1e9, 1e9),
+                bits: 32,
+            }
+        }
+        fn reference(&self, _: &Scenario, _: f64) -> f64 {
+            0.0
+        }
+        fn command_at(&mut self, t: f64, cmd: f64) {
+            self.0.lock().unwrap().push((t, cmd));
+        }
+        fn advance(&mut self, _: &Scenario, _: f64, _: f64) {}
+        fn output(&self, _: &Scenario, _: f64) -> f64 {
+            0.0
+        }
+        fn columns(&self) -> Vec<&'static str> {
+            Vec::new()
+        }
+        fn record(&self, _: &Scenario, _: f64, _: &mut Vec<f64>) {}
+        fn fresh(&self) -> Box<dyn Plant> {
+            Box::new(self.clone())
+        }
+        fn params(&self) -> Vec<crate::plant::Param> {
+            Vec::new()
+        }
+        fn set_param(&mut self, name: &str, _: f64) -> Result<(), String> {
+            Err(name.into())
+        }
+    }
+
+    /// Commands 1, 2, 3, .. with the hold's β as a second output.
+    struct Ramp(usize, f64);
+
+    impl Controller for Ramp {
+        fn signals(&self) -> crate::Signals {
+            crate::Signals {
+                inputs: vec![("f", "kN")],
+                states: vec![],
+                outputs: vec![("u", "mm/s"), (HOLD_BETA, "")],
+            }
+        }
+        fn period(&self) -> f64 {
+            0.1
+        }
+        fn step(&mut self, _: &[f64], out: &mut [f64]) {
+            self.0 += 1;
+            out[0] = self.0 as f64;
+            out[1] = self.1;
+        }
+        fn states(&self, _: &mut [f64]) {}
+    }
+
+    #[test]
+    fn a_hold_beta_output_drives_the_plant_on_the_holds_line() {
+        let sc = Scenario {
+            name: "log".into(),
+            duration_s: 0.3,
+            noise_sigma: 0.0,
+            seed: 1,
+            channels: Default::default(),
+        };
+        for beta in [0.0, 0.5, -0.3, 1.0] {
+            let log = Log(Default::default());
+            let cfg = RunConfig {
+                substeps: 4,
+                binding: None,
+            };
+            run_single(&log, Box::new(Ramp(0, beta)), &sc, cfg).expect("runs");
+            let got = log.0.lock().unwrap().clone();
+            // Per period k: the sample's command u_k = k + 1, then the four substeps at
+            // u_k + β·(u_k − u_{k−1})·(j + 1/2)/4, with u_{−1} = 0 (the plant at rest).
+            let mut want = Vec::new();
+            for k in 0..4 {
+                let (u, prev) = ((k + 1) as f64, k as f64);
+                want.push((k as f64 * 0.1, u));
+                for j in 0..4 {
+                    let t = k as f64 * 0.1 + j as f64 * 0.025;
+                    want.push((t, u + beta * (u - prev) * (j as f64 + 0.5) / 4.0));
+                }
+            }
+            assert_eq!(got.len(), want.len(), "β = {beta}");
+            for ((t, c), (wt, wc)) in got.iter().zip(&want) {
+                assert!(
+                    (t - wt).abs() < 1e-12 && (c - wc).abs() < 1e-12,
+                    "β = {beta}: {got:?}"
+                );
+            }
+        }
     }
 }
