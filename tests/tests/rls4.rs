@@ -142,9 +142,9 @@ fn the_fixed_point_estimator_follows_textbook_rls_to_the_true_parameters() {
         reference.step(phi_q, y_q.to_num::<f64>());
         let s = c.states();
         let pm: [[f64; 4]; 4] = s.P.map(|row| row.map(|x| x.to_num::<f64>()));
-        for i in 0..4 {
-            for j in 0..4 {
-                assert_eq!(pm[i][j], pm[j][i], "step {n}: P not symmetric");
+        for (i, row) in pm.iter().enumerate() {
+            for (j, x) in row.iter().enumerate() {
+                assert_eq!(*x, pm[j][i], "step {n}: P not symmetric");
             }
         }
         assert!(minors(&pm).iter().all(|m| *m > 0.0), "step {n}: {pm:?}");
@@ -155,8 +155,8 @@ fn the_fixed_point_estimator_follows_textbook_rls_to_the_true_parameters() {
                 "step {n}: P was reset: {pm:?}"
             );
         }
-        for i in 0..4 {
-            worst = worst.max((s.theta[i].to_num::<f64>() - reference.theta[i]).abs());
+        for (t, r) in s.theta.iter().zip(&reference.theta) {
+            worst = worst.max((t.to_num::<f64>() - r).abs());
         }
     }
     let th: Vec<f64> = c.states().theta.iter().map(|x| x.to_num::<f64>()).collect();
