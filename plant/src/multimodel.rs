@@ -75,7 +75,8 @@ pub struct MultiModelParams {
     pub initial_model: ContinuousTf,
     /// The continuous reference model (003 Sec. V).
     pub reference_model: ContinuousTf,
-    /// Smallest |Sylvester determinant| for which the controller is re-solved.
+    /// Smallest |Sylvester determinant|, and smallest |B(1)| (t₀'s divisor), for which the
+    /// controller is re-solved.
     pub min_det: f64,
     /// Whether the estimators adapt (false: every controller stays the initial model's).
     pub adapt: bool,
@@ -250,10 +251,11 @@ fn solve(theta: &DVector<f64>, am: (f64, f64), rho: f64, min_det: f64) -> Option
     rhs[0] = c[0] - a1;
     rhs[1] = c[1] - a2;
     rhs[2] = c[2];
-    if mat.determinant().abs() < min_det {
+    let lu = mat.lu();
+    if lu.determinant().abs() < min_det {
         return None;
     }
-    let x = mat.lu().solve(&rhs)?;
+    let x = lu.solve(&rhs)?;
     let b_at_1: f64 = b.iter().sum();
     if b_at_1.abs() < min_det {
         return None;

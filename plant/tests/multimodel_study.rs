@@ -27,6 +27,7 @@
 
 use qloop_plant::controller::Controller;
 use qloop_plant::froh::{hold_matrices, ContinuousTf};
+use qloop_plant::metrics::segment;
 use qloop_plant::milling::{scenario_named, Milling, MillingParams, FIG1_PROFILE};
 use qloop_plant::multimodel::{MultiModel, MultiModelParams};
 use qloop_plant::plant::Plant;
@@ -119,26 +120,16 @@ fn run(p: MultiModelParams, truth: Truth) -> Run {
     out
 }
 
-/// Per segment of 003 Fig. 1: (peak force, settled within ±5 % of 1.2 kN over its last 2 s).
+/// Per segment of 003 Fig. 1 (`qloop_plant::metrics::segment` against 1.2 kN): (overshoot
+/// as a fraction, settled within ±5 % over at least the segment's last 2 s).
 fn segments(r: &Run) -> Vec<(f64, bool)> {
     let mut t0 = 0.0;
     FIG1_PROFILE
         .iter()
         .map(|(_, len)| {
-            let t1 = t0 + len;
-            let ys: Vec<(f64, f64)> =
-                r.t.iter()
-                    .zip(&r.y)
-                    .filter(|(t, _)| **t >= t0 && **t < t1)
-                    .map(|(t, y)| (*t, *y))
-                    .collect();
-            let peak = ys.iter().fold(0.0f64, |m, (_, y)| m.max(*y));
-            let settled = ys
-                .iter()
-                .filter(|(t, _)| *t >= t1 - 2.0)
-                .all(|(_, y)| (y - 1.2).abs() <= 0.06);
-            t0 = t1;
-            (peak, settled)
+            let m = segment(&r.t, &r.y, 1.2, t0, t0 + len).expect("a segment of samples");
+            t0 += len;
+            (m.overshoot, m.settling_s.is_some_and(|s| s <= len - 2.0))
         })
         .collect()
 }
@@ -185,14 +176,13 @@ fn multimodel_study_on_the_fig1_profile() {
         let segs = segments(&r);
         let switches = r.beta.windows(2).filter(|w| w[0] != w[1]).count();
         println!("{name}: {switches} switches");
-        for (i, ((peak, settled), det)) in segs.iter().zip(&r.det).enumerate() {
+        for (i, ((overshoot, settled), det)) in segs.iter().zip(&r.det).enumerate() {
             println!(
-                "  segment {} (b = {} mm): peak {:.3} kN ({:+.0} %), settled {settled}, \
+                "  segment {} (b = {} mm): overshoot {:.0} %, settled {settled}, \
                  min |Sylvester det| / initial {det:.2e}",
                 i + 1,
                 FIG1_PROFILE[i].0,
-                peak,
-                (peak / 1.2 - 1.0) * 100.0
+                overshoot * 100.0
             );
         }
         // The oracle's algebra: every law solves its Diophantine equation for the current

@@ -5,6 +5,7 @@ pub mod cases;
 pub mod claims;
 pub mod exact;
 pub mod random_spec;
+pub mod rls;
 
 use qloop::ir::SigId;
 use qloop::{Plan, Target};
@@ -137,4 +138,38 @@ pub fn run(cmd: &mut std::process::Command) -> String {
         o.status
     );
     out
+}
+
+/// Proves `plan` with both solvers (per-query limit `timeout_ms`), asserts that every
+/// obligation is proved and that for each of `names` some obligation's name contains it, and
+/// returns the report.
+pub fn assert_proved(plan: &Plan, timeout_ms: u64, names: &[&str]) -> qloop::prove::Report {
+    let r = qloop::prove::prove(plan, &both_solvers(timeout_ms), &mut |_| {});
+    assert!(r.proved(), "{}", r.table(plan));
+    for name in names {
+        assert!(
+            r.outcomes.iter().any(|o| o.ob.name.contains(name)),
+            "no obligation for {name}"
+        );
+    }
+    r
+}
+
+/// Asserts that the obligation called `name` was proved (unsat) by each solver on its own.
+pub fn assert_proved_by_each_solver(r: &qloop::prove::Report, name: &str) {
+    use qloop::prove::solver::{Answer, Solver};
+    let o = r
+        .outcomes
+        .iter()
+        .find(|o| o.ob.name == name)
+        .unwrap_or_else(|| panic!("no obligation `{name}`"));
+    for s in Solver::ALL {
+        assert!(
+            o.runs
+                .iter()
+                .any(|run| run.solver == s && run.answer == Answer::Unsat),
+            "{name}: not proved by {}",
+            s.name()
+        );
+    }
 }

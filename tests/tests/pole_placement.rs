@@ -17,6 +17,7 @@ use fixed::FixedI32;
 use num_rational::BigRational;
 use num_traits::{Signed, ToPrimitive};
 use qloop::Plan;
+use qloop_tests::exact::{of_f64, of_raw};
 use rand::{Rng, SeedableRng};
 
 qloop_macros::controller!("tests/pole_placement.qloop");
@@ -38,34 +39,26 @@ fn plan() -> Plan {
 
 #[test]
 fn the_placement_invariant_and_claim_are_proved() {
-    let p = plan();
-    let r = qloop::prove::prove(&p, &qloop_tests::both_solvers(120_000), &mut |_| {});
-    assert!(r.proved(), "{}", r.table(&p));
-    for name in ["law_places_the_poles", "placement_holds_near_the_model"] {
-        assert!(
-            r.outcomes.iter().any(|o| o.ob.name.contains(name)),
-            "no obligation for {name}"
-        );
-    }
+    qloop_tests::assert_proved(
+        &plan(),
+        120_000,
+        &["law_places_the_poles", "placement_holds_near_the_model"],
+    );
 }
 
 #[test]
 fn the_froh_placement_invariant_and_claim_are_proved() {
-    let p = froh_plan();
-    let r = qloop::prove::prove(&p, &qloop_tests::both_solvers(120_000), &mut |_| {});
-    assert!(r.proved(), "{}", r.table(&p));
-    for name in [
-        "law_places_the_poles",
-        "placement_near_the_model_z3",
-        "placement_near_the_model_z2",
-        "placement_near_the_model_z1",
-        "placement_near_the_model_z0",
-    ] {
-        assert!(
-            r.outcomes.iter().any(|o| o.ob.name.contains(name)),
-            "no obligation for {name}"
-        );
-    }
+    qloop_tests::assert_proved(
+        &froh_plan(),
+        120_000,
+        &[
+            "law_places_the_poles",
+            "placement_near_the_model_z3",
+            "placement_near_the_model_z2",
+            "placement_near_the_model_z1",
+            "placement_near_the_model_z0",
+        ],
+    );
 }
 
 fn froh_plan() -> Plan {
@@ -78,13 +71,7 @@ fn froh_plan() -> Plan {
 
 /// A signal's one-step error bound as `qloop check` claims it.
 fn claimed_err(p: &Plan, name: &str) -> f64 {
-    let i = p
-        .prog
-        .signals
-        .iter()
-        .position(|s| s.name == name)
-        .unwrap_or_else(|| panic!("{name}"));
-    p.summary[i].err
+    p.summary[qloop_tests::sig(p, name).0].err
 }
 
 #[test]
@@ -131,8 +118,9 @@ fn reference_law(a1: f64, a2: f64, b1: f64, b2: f64) -> (f64, f64, f64, f64) {
     (r1, s0, s1, det)
 }
 
-fn exact(bits: i32, frac: u32) -> BigRational {
-    BigRational::new(bits.into(), num_bigint::BigInt::from(1) << frac)
+/// A raw Q(i32, `frac`) value, exactly.
+fn exact(bits: i32, frac: i32) -> BigRational {
+    of_raw(bits.into(), frac)
 }
 
 #[test]
@@ -193,7 +181,7 @@ fn compiled_law_solves_the_sylvester_system() {
             // The accepted law's closed loop, in exact rationals, is within TOL.
             let [a1, a2, b1, b2] = bits.map(|b| exact(b, 28));
             let [r, n0, n1] = [s.r1, s.s0, s.s1].map(|x| exact(x.to_bits(), 24));
-            let m = |x: f64| BigRational::from_float(x).expect("finite");
+            let m = of_f64;
             let tol = m(TOL);
             let coeffs = [
                 &r + &a1 + &b1 * &n0 - m(M1),
@@ -312,7 +300,7 @@ fn compiled_froh_law_solves_the_sylvester_system() {
             accepted += 1;
             let [a1, a2, b1, b2, b3] = bits.map(|b| exact(b, 28));
             let [r1, r2, s0, s1] = [s.r1, s.r2, s.s0, s.s1].map(|x| exact(x.to_bits(), 24));
-            let m = |x: f64| BigRational::from_float(x).expect("finite");
+            let m = of_f64;
             let coeffs = [
                 &r1 + &a1 + &b1 * &s0 - m(M1),
                 &r2 + &a1 * &r1 + &a2 + &b2 * &s0 + &b1 * &s1 - m(M2),

@@ -12,8 +12,8 @@
 
 use fixed::types::extra::{U27, U30};
 use fixed::FixedI32;
-use qloop::prove::solver::{Answer, Solver};
 use qloop::Plan;
+use qloop_tests::rls::{regressors, Rls};
 
 qloop_macros::controller!("tests/rls3.qloop");
 
@@ -27,81 +27,23 @@ const LAMBDA_INV: f64 = 1.0625;
 /// The parameters the data come from.
 const THETA: [f64; 3] = [1.5, -0.75, 0.5];
 
-/// A reproducible regressor sequence in [-1, 1]³ (xorshift), persistently exciting.
-fn regressors(n: usize) -> Vec<[f64; 3]> {
-    let mut s: u64 = 0x2545_f491_4f6c_dd1d;
-    let mut next = || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
-    (0..n).map(|_| [next(), next(), next()]).collect()
-}
-
-/// Textbook RLS with forgetting, in f64 with division: the independent reference. (Index
-/// loops on purpose: they read as the textbook's sums.)
-struct Rls {
-    theta: [f64; 3],
-    p: [[f64; 3]; 3],
-}
-
-impl Rls {
-    #[allow(clippy::needless_range_loop)]
-    fn step(&mut self, phi: [f64; 3], y: f64) {
-        let lambda = 1.0 / LAMBDA_INV;
-        let pphi: Vec<f64> = (0..3)
-            .map(|i| (0..3).map(|j| self.p[i][j] * phi[j]).sum())
-            .collect();
-        let den = lambda + (0..3).map(|i| phi[i] * pphi[i]).sum::<f64>();
-        let e = y - (0..3).map(|i| self.theta[i] * phi[i]).sum::<f64>();
-        for i in 0..3 {
-            self.theta[i] += pphi[i] / den * e;
-        }
-        for i in 0..3 {
-            for j in 0..3 {
-                self.p[i][j] = (self.p[i][j] - pphi[i] * pphi[j] / den) / lambda;
-            }
-        }
-    }
-}
-
 #[test]
 fn every_obligation_and_the_positive_definiteness_are_proved_by_both_solvers() {
-    let p = plan();
-    let cfg = qloop_tests::both_solvers(60_000);
-    let r = qloop::prove::prove(&p, &cfg, &mut |_| {});
-    assert!(r.proved(), "{}", r.table(&p));
+    let r = qloop_tests::assert_proved(&plan(), 60_000, &[]);
     for inv in [
         "covariance_symmetric",
         "covariance_minor_2",
         "covariance_determinant",
     ] {
-        let o = r
-            .outcomes
-            .iter()
-            .find(|o| o.ob.name == format!("invariant {inv} is inductive"))
-            .unwrap_or_else(|| panic!("no inductive obligation for {inv}"));
-        for s in Solver::ALL {
-            assert!(
-                o.runs
-                    .iter()
-                    .any(|run| run.solver == s && run.answer == Answer::Unsat),
-                "{inv}: not proved by {}",
-                s.name()
-            );
-        }
+        qloop_tests::assert_proved_by_each_solver(&r, &format!("invariant {inv} is inductive"));
     }
 }
 
 #[test]
 fn the_fixed_point_estimator_follows_textbook_rls_to_the_true_parameters() {
     let mut c = rls3::Controller::new();
-    let mut reference = Rls {
-        theta: [0.0; 3],
-        p: [[4.0, 0.0, 0.0], [0.0, 4.0, 0.0], [0.0, 0.0, 4.0]],
-    };
-    let phis = regressors(400);
+    let mut reference = Rls::<3>::new(4.0, LAMBDA_INV);
+    let phis = regressors::<3>(0x2545_f491_4f6c_dd1d, 400);
     let mut worst: f64 = 0.0;
     for (n, phi) in phis.iter().enumerate() {
         let q: [FixedI32<U30>; 3] = phi.map(FixedI32::<U30>::from_num);

@@ -13,8 +13,8 @@
 
 use fixed::types::extra::{U27, U30};
 use fixed::FixedI32;
-use qloop::prove::solver::{Answer, Solver};
 use qloop::Plan;
+use qloop_tests::rls::{regressors, Rls};
 
 qloop_macros::controller!("tests/rls4.qloop");
 
@@ -29,44 +29,6 @@ const LAMBDA_INV: f64 = 1.0625;
 const P0: f64 = 2.0;
 /// The parameters the data come from: 003's initial ZOH model (a1, a2, b1, b2), scaled.
 const THETA: [f64; 4] = [0.1793, 0.1867, 1.4644, 1.5161];
-
-/// A reproducible regressor sequence in [-1, 1]⁴ (xorshift), persistently exciting.
-fn regressors(n: usize) -> Vec<[f64; 4]> {
-    let mut s: u64 = 0x9e37_79b9_7f4a_7c15;
-    let mut next = || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
-    (0..n).map(|_| [next(), next(), next(), next()]).collect()
-}
-
-/// Textbook RLS with forgetting, in f64 with division: the independent reference.
-struct Rls {
-    theta: [f64; 4],
-    p: [[f64; 4]; 4],
-}
-
-impl Rls {
-    #[allow(clippy::needless_range_loop)]
-    fn step(&mut self, phi: [f64; 4], y: f64) {
-        let lambda = 1.0 / LAMBDA_INV;
-        let pphi: Vec<f64> = (0..4)
-            .map(|i| (0..4).map(|j| self.p[i][j] * phi[j]).sum())
-            .collect();
-        let den = lambda + (0..4).map(|i| phi[i] * pphi[i]).sum::<f64>();
-        let e = y - (0..4).map(|i| self.theta[i] * phi[i]).sum::<f64>();
-        for i in 0..4 {
-            self.theta[i] += pphi[i] / den * e;
-        }
-        for i in 0..4 {
-            for j in 0..4 {
-                self.p[i][j] = (self.p[i][j] - pphi[i] * pphi[j] / den) / lambda;
-            }
-        }
-    }
-}
 
 /// The leading principal minors of a 4 × 4 matrix, by cofactor expansion (f64).
 fn minors(p: &[[f64; 4]; 4]) -> [f64; 4] {
@@ -99,41 +61,26 @@ fn minors(p: &[[f64; 4]; 4]) -> [f64; 4] {
 
 #[test]
 fn every_obligation_and_the_positive_definiteness_are_proved_by_both_solvers() {
-    let p = plan();
-    let r = qloop::prove::prove(&p, &qloop_tests::both_solvers(60_000), &mut |_| {});
-    assert!(r.proved(), "{}", r.table(&p));
+    let r = qloop_tests::assert_proved(&plan(), 60_000, &[]);
     for inv in [
         "covariance_symmetric",
         "covariance_minor_2",
         "covariance_minor_3",
         "covariance_determinant",
     ] {
-        let o = r
-            .outcomes
-            .iter()
-            .find(|o| o.ob.name == format!("invariant {inv} is inductive"))
-            .unwrap_or_else(|| panic!("no inductive obligation for {inv}"));
-        for s in Solver::ALL {
-            assert!(
-                o.runs
-                    .iter()
-                    .any(|run| run.solver == s && run.answer == Answer::Unsat),
-                "{inv}: not proved by {}",
-                s.name()
-            );
-        }
+        qloop_tests::assert_proved_by_each_solver(&r, &format!("invariant {inv} is inductive"));
     }
 }
 
 #[test]
 fn the_fixed_point_estimator_follows_textbook_rls_to_the_true_parameters() {
     let mut c = rls4::Controller::new();
-    let mut reference = Rls {
-        theta: [0.0; 4],
-        p: std::array::from_fn(|i| std::array::from_fn(|j| if i == j { P0 } else { 0.0 })),
-    };
+    let mut reference = Rls::<4>::new(P0, LAMBDA_INV);
     let mut worst: f64 = 0.0;
-    for (n, phi) in regressors(600).iter().enumerate() {
+    for (n, phi) in regressors::<4>(0x9e37_79b9_7f4a_7c15, 600)
+        .iter()
+        .enumerate()
+    {
         let q: [FixedI32<U30>; 4] = phi.map(FixedI32::<U30>::from_num);
         let phi_q = q.map(|x| x.to_num::<f64>());
         let y = (0..4).map(|i| THETA[i] * phi_q[i]).sum::<f64>();

@@ -19,19 +19,16 @@ const NR: usize = 2;
 fn residence_time_and_valid_index_are_proved() {
     let p = qloop::compile_str(include_str!("supervisor.qloop"), &qloop::Target::default())
         .expect("supervisor.qloop compiles");
-    let r = qloop::prove::prove(&p, &qloop_tests::both_solvers(120_000), &mut |_| {});
-    assert!(r.proved(), "{}", r.table(&p));
-    for name in [
-        "switch_only_after_residence",
-        "switch_restarts_the_count",
-        "count_advances_by_one",
-        "active_is_a_model",
-    ] {
-        assert!(
-            r.outcomes.iter().any(|o| o.ob.name.contains(name)),
-            "no obligation for {name}"
-        );
-    }
+    qloop_tests::assert_proved(
+        &p,
+        120_000,
+        &[
+            "switch_only_after_residence",
+            "switch_restarts_the_count",
+            "count_advances_by_one",
+            "active_is_a_model",
+        ],
+    );
 }
 
 /// 003's rule, written independently: J_l = Σ of the last M squared errors (raw integers,
