@@ -605,8 +605,15 @@ impl Report {
 
     /// One solver's cell of the table.
     fn cell(x: &Outcome, s: Solver) -> String {
+        let shared = x
+            .attempts
+            .iter()
+            .filter(|a| a.run.solver == s)
+            .all(|a| a.run.shared);
         x.solver_answer(s).map_or("-".into(), |(text, ms, cached)| {
-            if cached {
+            if shared {
+                format!("{text} (same query as another obligation's, asked once)")
+            } else if cached {
                 format!("{text} (cached)")
             } else {
                 format!("{text} {}", duration_text(ms))
@@ -694,17 +701,21 @@ Inputs are arbitrary bits (step clamps them), except in properties, which assume
                 format!("{} {:.2} s", s.name(), ms as f64 / 1000.0)
             })
             .collect();
-        let runs = self
-            .outcomes
-            .iter()
-            .map(|x| x.attempts.len())
-            .sum::<usize>();
+        let attempts = || self.outcomes.iter().flat_map(|x| &x.attempts);
+        let runs = attempts().filter(|a| !a.run.shared).count();
+        let shared = match attempts().filter(|a| a.run.shared).count() {
+            0 => String::new(),
+            n => format!(
+                " ({n} more answers taken from them: queries identical up to the names of \
+                 their variables are asked once)"
+            ),
+        };
         let wit_ms: u64 = self.witness_runs.iter().map(|r| r.millis).sum();
         let _ = writeln!(
             o,
-            "solver time: {} over {runs} runs and {} premise (vacuity) checks taking {:.2} s \
-             ({} more met by a run of the plan); {} parallel job(s), so the wall time is about \
-             the larger of the total over the jobs and the longest single run",
+            "solver time: {} over {runs} runs{shared} and {} premise (vacuity) checks taking \
+             {:.2} s ({} more met by a run of the plan); {} parallel job(s), so the wall time \
+             is about the larger of the total over the jobs and the longest single run",
             per.join(", "),
             self.witness_runs.len(),
             wit_ms as f64 / 1000.0,
@@ -809,6 +820,7 @@ mod tests {
             answer,
             millis: 5,
             cached: false,
+            shared: false,
         };
         let runs = vec![
             run(Solver::Z3, Answer::Unsat),
@@ -846,6 +858,7 @@ mod tests {
                 answer,
                 millis: 100,
                 cached: false,
+                shared: false,
             },
             spurious,
         };

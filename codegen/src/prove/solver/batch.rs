@@ -93,6 +93,7 @@ pub(super) fn run_batch(
                 answer,
                 millis: 0,
                 cached: true,
+                shared: false,
             })
         })
         .collect();
@@ -128,6 +129,7 @@ pub(super) fn run_batch(
                         answer: Answer::Unsat,
                         millis: each,
                         cached: false,
+                        shared: false,
                     });
                 }
             }

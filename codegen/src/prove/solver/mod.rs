@@ -13,6 +13,7 @@
 //! | `sexp`      | reading the S-expressions solvers print                                |
 //! | `response`  | a solver's standard output as an [`Answer`] (verdict, bit-vector model) |
 //! | `cache`     | the on-disk verdict cache                                              |
+//! | `dedup`     | obligations equal up to the names of their symbols, asked once          |
 //!
 //! # Why no SMT crate
 //!
@@ -45,6 +46,7 @@
 
 mod batch;
 mod cache;
+mod dedup;
 mod portfolio;
 mod process;
 mod response;
@@ -146,6 +148,9 @@ pub struct Run {
     pub millis: u64,
     /// Whether the answer came from the verdict cache rather than a solver process.
     pub cached: bool,
+    /// Whether the answer is that of another obligation's identical query (the same script
+    /// up to the names of its declared symbols, `dedup`), taken without a run of its own.
+    pub shared: bool,
 }
 
 /// A query: the full SMT-LIB script WITHOUT (check-sat)/(get-value), plus the variable names

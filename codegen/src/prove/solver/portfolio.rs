@@ -9,6 +9,7 @@
 //! polls, which kills the child.
 
 use super::batch::{run_batch, BATCH};
+use super::dedup::{classes, share};
 use super::run::{run_one, solver_text};
 use super::{Answer, Config, Query, Run};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -65,6 +66,74 @@ pub fn run_all_batched(
     progress: &mut dyn FnMut(usize, usize, usize),
     confirm: &mut dyn FnMut(usize, &Run) -> bool,
 ) -> Vec<Vec<Run>> {
+    // Alpha-equivalent groups run once (`dedup`); the others take their answers.
+    let c = classes(queries, groups, small);
+    if c.runs.len() == queries.len() {
+        return run_distinct(queries, groups, small, cfg, progress, confirm);
+    }
+    let pick = |v: &[usize]| -> Vec<usize> {
+        c.runs
+            .iter()
+            .map(|&qi| v.get(qi).copied().unwrap_or(qi))
+            .collect()
+    };
+    let sub_queries: Vec<Query> = c.runs.iter().map(|&qi| queries[qi].clone()).collect();
+    // Group names in the subset: the position of the group's first query.
+    let sub_groups: Vec<usize> = pick(groups)
+        .iter()
+        .map(|g| {
+            c.runs
+                .iter()
+                .position(|&qi| groups.get(qi).copied().unwrap_or(qi) == *g)
+                .unwrap_or(0)
+        })
+        .collect();
+    let sub_small: Vec<bool> = c
+        .runs
+        .iter()
+        .map(|&qi| small.get(qi).copied().unwrap_or(false))
+        .collect();
+    // Every query that takes a run's answers, for the progress count.
+    let mut takers: Vec<Vec<usize>> = vec![Vec::new(); c.runs.len()];
+    for (qi, &src) in c.source.iter().enumerate() {
+        takers[src].push(qi);
+    }
+    let total = queries.len() * cfg.solvers.len();
+    let mut done = 0;
+    let sub = run_distinct(
+        &sub_queries,
+        &sub_groups,
+        &sub_small,
+        cfg,
+        &mut |_, _, ri| {
+            for &qi in &takers[ri] {
+                done += 1;
+                progress(done, total, qi);
+            }
+        },
+        &mut |ri, run| confirm(c.runs[ri], run),
+    );
+    (0..queries.len())
+        .map(|qi| {
+            let row = &sub[c.source[qi]];
+            if c.shared[qi] {
+                row.iter().map(|r| share(r, &queries[qi])).collect()
+            } else {
+                row.clone()
+            }
+        })
+        .collect()
+}
+
+/// [`run_all_batched`] on queries of which no two groups are alike.
+fn run_distinct(
+    queries: &[Query],
+    groups: &[usize],
+    small: &[bool],
+    cfg: &Config,
+    progress: &mut dyn FnMut(usize, usize, usize),
+    confirm: &mut dyn FnMut(usize, &Run) -> bool,
+) -> Vec<Vec<Run>> {
     let solvers = &cfg.solvers;
     let total = queries.len() * solvers.len();
     if total == 0 {
@@ -93,6 +162,7 @@ pub fn run_all_batched(
                         answer: Answer::Error("internal error: the run produced no result".into()),
                         millis: 0,
                         cached: false,
+                        shared: false,
                     })
                 })
                 .collect()
@@ -227,6 +297,7 @@ impl<'a> Schedule<'a> {
             answer: Answer::Cancelled,
             millis: 0,
             cached: false,
+            shared: false,
         };
         let stopped = |qi: usize| self.flag(qi, si).is_some_and(|f| f.load(Ordering::Relaxed));
         let (off, on): (Vec<usize>, Vec<usize>) = task.queries.iter().partition(|&&qi| stopped(qi));
@@ -501,7 +572,16 @@ mod tests {
             jobs: 1,
             deadline: Some(start + Duration::from_secs(2)),
         };
-        let runs = run_all(&[hard.clone(), hard], &cfg, &mut |_, _| {});
+        // Two different queries (identical ones would run once: `dedup`).
+        let other = Query {
+            script: hard.script.replace(
+                "#x00000001))\n(assert (bvugt ((_ extract 31 0) q)",
+                "#x00000002))\n(assert (bvugt ((_ extract 31 0) q)",
+            ),
+            want: vec![],
+        };
+        assert_ne!(other.script, hard.script);
+        let runs = run_all(&[hard, other], &cfg, &mut |_, _| {});
         assert_eq!(runs[0][0].answer, Answer::Timeout, "{:?}", runs[0][0]);
         assert!(
             matches!(&runs[1][0].answer, Answer::Error(m) if m.contains("time limit")),

@@ -67,6 +67,7 @@ pub(super) fn run_one(
             )),
             millis: 0,
             cached: false,
+            shared: false,
         };
     };
     let cache = cfg
@@ -80,6 +81,7 @@ pub(super) fn run_one(
                 answer,
                 millis: 0,
                 cached: true,
+                shared: false,
             };
         }
     }
@@ -92,6 +94,7 @@ pub(super) fn run_one(
             ),
             millis: 0,
             cached: false,
+            shared: false,
         };
     };
     let answer = execute(
@@ -114,6 +117,7 @@ pub(super) fn run_one(
         answer,
         millis,
         cached: false,
+        shared: false,
     }
 }
 
