@@ -56,3 +56,35 @@ pub fn regressors<const N: usize>(seed: u64, n: usize) -> Vec<[f64; N]> {
     };
     (0..n).map(|_| std::array::from_fn(|_| next())).collect()
 }
+
+/// The leading principal minors of an `N × N` matrix, by cofactor expansion (f64): the
+/// independent check of Sylvester's test in the estimators and of the `det` built-in.
+pub fn minors<const N: usize>(p: &[[f64; N]; N]) -> [f64; N] {
+    std::array::from_fn(|k| {
+        let m: Vec<Vec<f64>> = p[..=k].iter().map(|r| r[..=k].to_vec()).collect();
+        det(&m)
+    })
+}
+
+/// The determinant of a square matrix by cofactor expansion along the first row.
+pub fn det(m: &[Vec<f64>]) -> f64 {
+    if m.len() == 1 {
+        return m[0][0];
+    }
+    (0..m.len())
+        .map(|c| {
+            let sub: Vec<Vec<f64>> = m[1..]
+                .iter()
+                .map(|r| {
+                    r.iter()
+                        .enumerate()
+                        .filter(|(j, _)| *j != c)
+                        .map(|(_, x)| *x)
+                        .collect()
+                })
+                .collect();
+            let sign = if c % 2 == 0 { 1.0 } else { -1.0 };
+            sign * m[0][c] * det(&sub)
+        })
+        .sum()
+}

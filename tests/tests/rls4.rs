@@ -14,7 +14,7 @@
 use fixed::types::extra::{U27, U30};
 use fixed::FixedI32;
 use qloop::Plan;
-use qloop_tests::rls::{regressors, Rls};
+use qloop_tests::rls::{minors, regressors, Rls};
 
 qloop_macros::controller!("tests/rls4.qloop");
 
@@ -29,35 +29,6 @@ const LAMBDA_INV: f64 = 1.0625;
 const P0: f64 = 2.0;
 /// The parameters the data come from: 003's initial ZOH model (a1, a2, b1, b2), scaled.
 const THETA: [f64; 4] = [0.1793, 0.1867, 1.4644, 1.5161];
-
-/// The leading principal minors of a 4 × 4 matrix, by cofactor expansion (f64).
-fn minors(p: &[[f64; 4]; 4]) -> [f64; 4] {
-    fn det(m: &[Vec<f64>]) -> f64 {
-        if m.len() == 1 {
-            return m[0][0];
-        }
-        (0..m.len())
-            .map(|c| {
-                let sub: Vec<Vec<f64>> = m[1..]
-                    .iter()
-                    .map(|r| {
-                        r.iter()
-                            .enumerate()
-                            .filter(|(j, _)| *j != c)
-                            .map(|(_, x)| *x)
-                            .collect()
-                    })
-                    .collect();
-                let sign = if c % 2 == 0 { 1.0 } else { -1.0 };
-                sign * m[0][c] * det(&sub)
-            })
-            .sum()
-    }
-    std::array::from_fn(|k| {
-        let m: Vec<Vec<f64>> = p[..=k].iter().map(|r| r[..=k].to_vec()).collect();
-        det(&m)
-    })
-}
 
 #[test]
 fn every_obligation_and_the_positive_definiteness_are_proved_by_both_solvers() {

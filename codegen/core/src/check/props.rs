@@ -25,11 +25,16 @@ impl Checker {
         let mut properties = Vec::new();
         let mut names: HashMap<String, proc_macro2::Span> = HashMap::new();
         for item in items {
-            let (name, span) = match item {
-                PropItem::Invariant { name, .. } | PropItem::Property { name, .. } => {
-                    (name.to_string(), name.span())
-                }
-            };
+            let (name, span) =
+                match item {
+                    PropItem::Invariant { name, .. } | PropItem::Property { name, .. } => {
+                        (name.to_string(), name.span())
+                    }
+                    PropItem::For(f) => return Err(Diag::new(
+                        f.var.span(),
+                        "internal error: a `for` loop of `prove` reached the checker unexpanded",
+                    )),
+                };
             if names.insert(name.clone(), span).is_some() {
                 return Err(Diag::new(
                     span,
@@ -104,6 +109,8 @@ impl Checker {
                         span,
                     });
                 }
+                // Refused above.
+                PropItem::For(_) => {}
             }
         }
         Ok((invariants, properties))

@@ -174,4 +174,18 @@ pub enum PropItem {
         /// Conclusions.
         ensures: Vec<Expr>,
     },
+    /// `for l in A..B { items }`: the items once per `l`, each named `NAME_l` (one invariant
+    /// per estimator of a stack, say); unrolled by `expand`, so no later stage sees it.
+    For(Box<PropFor>),
+}
+
+/// A `for` loop over `prove` items.
+#[derive(Clone)]
+pub struct PropFor {
+    /// The loop variable.
+    pub var: Ident,
+    /// The range `A..B` or `A..=B`.
+    pub range: syn::ExprRange,
+    /// The items of the body.
+    pub items: Vec<PropItem>,
 }

@@ -42,8 +42,29 @@ use syn::spanned::Spanned;
 use syn::visit_mut::VisitMut;
 use syn::{BinOp, Expr, Ident, UnOp};
 
+/// Largest order of `det` (a 5 × 5 determinant expands into 120 products; symmetric, 73).
+pub const MAX_DET: usize = 5;
+
+/// The permutations of `0..k` in lexicographic order, each with its sign.
+fn permutations(k: usize) -> Vec<(Vec<usize>, i64)> {
+    if k == 0 {
+        return vec![(Vec::new(), 1)];
+    }
+    let mut out = Vec::new();
+    for first in 0..k {
+        for (rest, sign) in permutations(k - 1) {
+            // `rest` permutes 0..k-1; lift it to the elements other than `first`.
+            let mut p = vec![first];
+            p.extend(rest.iter().map(|&r| if r >= first { r + 1 } else { r }));
+            // Moving `first` to the front takes `first` transpositions.
+            out.push((p, if first % 2 == 0 { sign } else { -sign }));
+        }
+    }
+    out
+}
+
 /// Most elements one vector or matrix may have.
-pub const MAX_ELEMENTS: usize = 64;
+pub const MAX_ELEMENTS: usize = 256;
 
 /// Most statements all the `for` loops of a spec may produce when unrolled.
 pub const MAX_UNROLLED: usize = 4096;
@@ -118,19 +139,7 @@ pub fn expand(ast: &SpecAst) -> Result<Expanded> {
                 items.push(Item::Step(b));
             }
             Item::Prove { items: props, span } => {
-                let mut props = props.clone();
-                for p in &mut props {
-                    match p {
-                        PropItem::Invariant { cond, .. } => x.expr(cond)?,
-                        PropItem::Property {
-                            assumes, ensures, ..
-                        } => {
-                            for e in assumes.iter_mut().chain(ensures.iter_mut()) {
-                                x.expr(e)?;
-                            }
-                        }
-                    }
-                }
+                let props = x.props(props)?;
                 items.push(Item::Prove {
                     items: props,
                     span: *span,
@@ -182,6 +191,8 @@ struct Expander {
     recips: Vec<RecipSite>,
     /// Statements produced by unrolling so far.
     unrolled: usize,
+    /// The values of the `for` loops of `prove` being unrolled, outermost first.
+    prop_suffix: Vec<i64>,
     /// The first error met inside a visitor callback.
     err: Option<Diag>,
 }
@@ -227,10 +238,10 @@ impl Expander {
             .iter()
             .map(|d| self.dim(d))
             .collect::<Result<Vec<_>>>()?;
-        if dims.len() > 2 {
+        if dims.len() > 3 {
             return Err(
-                Diag::new(s.dims[2].span(), "a signal has at most two dimensions")
-                    .help("declare a vector `x[N]` or a matrix `P[ROWS][COLS]`"),
+                Diag::new(s.dims[3].span(), "a signal has at most three dimensions")
+                    .help("declare a vector `x[N]`, a matrix `P[ROWS][COLS]`, or a stack of matrices `P[K][ROWS][COLS]` (one per estimator, say)"),
             );
         }
         let n: usize = dims.iter().product();
@@ -451,6 +462,96 @@ impl Expander {
         Ok(())
     }
 
+    /// The items of a `prove` block with their expressions rewritten and `for` loops
+    /// unrolled: each item of a loop's body once per value `k` of the loop variable, named
+    /// `NAME_k`.
+    fn props(&mut self, props: &[PropItem]) -> Result<Vec<PropItem>> {
+        let mut out = Vec::new();
+        for p in props {
+            match p {
+                PropItem::Invariant { docs, name, cond } => {
+                    let mut cond = cond.clone();
+                    self.expr(&mut cond)?;
+                    out.push(PropItem::Invariant {
+                        docs: docs.clone(),
+                        name: self.prop_name(name),
+                        cond,
+                    });
+                }
+                PropItem::Property {
+                    docs,
+                    name,
+                    foralls,
+                    assumes,
+                    ensures,
+                } => {
+                    let mut assumes = assumes.clone();
+                    let mut ensures = ensures.clone();
+                    for e in assumes.iter_mut().chain(ensures.iter_mut()) {
+                        self.expr(e)?;
+                    }
+                    out.push(PropItem::Property {
+                        docs: docs.clone(),
+                        name: self.prop_name(name),
+                        foralls: foralls.clone(),
+                        assumes,
+                        ensures,
+                    });
+                }
+                PropItem::For(f) => {
+                    let v = f.var.to_string();
+                    if self.names.contains(&v)
+                        || self.shapes.contains_key(&v)
+                        || self.resolve(&v).is_some()
+                    {
+                        return Err(Diag::new(f.var.span(), format!("`{v}` is already defined"))
+                            .help("name the loop variable differently"));
+                    }
+                    let (Some(lo), Some(hi)) = (&f.range.start, &f.range.end) else {
+                        return Err(Diag::new(
+                            f.range.span(),
+                            "a loop range needs both ends: `A..B`",
+                        ));
+                    };
+                    let (lo, mut hi) = (self.int(lo)?, self.int(hi)?);
+                    if matches!(f.range.limits, syn::RangeLimits::Closed(_)) {
+                        hi = hi.saturating_add(1);
+                    }
+                    let count = usize::try_from(hi.saturating_sub(lo)).unwrap_or(0);
+                    let made = count.saturating_mul(f.items.len());
+                    if self.unrolled.saturating_add(made) > MAX_UNROLLED {
+                        return Err(Diag::new(
+                            f.range.span(),
+                            format!(
+                                "unrolling this loop would make more than {MAX_UNROLLED} items"
+                            ),
+                        ));
+                    }
+                    self.unrolled += made;
+                    for k in lo..hi {
+                        self.frames
+                            .push(HashMap::from([(v.clone(), Subst::Int(k))]));
+                        self.prop_suffix.push(k);
+                        let body = self.props(&f.items);
+                        self.prop_suffix.pop();
+                        self.frames.pop();
+                        out.extend(body?);
+                    }
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// `name`, with the values of the enclosing `for` loops of `prove` appended (`name_2`).
+    fn prop_name(&self, name: &Ident) -> Ident {
+        let mut n = name.to_string();
+        for k in &self.prop_suffix {
+            n.push_str(&format!("_{k}"));
+        }
+        Ident::new(&n, name.span())
+    }
+
     /// Unrolls `for i in A..B { body }` into `out`.
     fn unroll(&mut self, f: &syn::ExprForLoop, out: &mut Vec<syn::Stmt>) -> Result<()> {
         if let Some(l) = &f.label {
@@ -635,7 +736,17 @@ impl Expander {
                 if let Some(d) = self.shapes.get(&name) {
                     let (what, eg) = match d.as_slice() {
                         [n] => (format!("a vector of {n}"), "[0]"),
-                        _ => (format!("a {}×{} matrix", d[0], d[1]), "[0][0]"),
+                        [r, c] => (format!("a {r}×{c} matrix"), "[0][0]"),
+                        _ => (
+                            format!(
+                                "an array of {}",
+                                d.iter()
+                                    .map(|x| x.to_string())
+                                    .collect::<Vec<_>>()
+                                    .join("×")
+                            ),
+                            "[0][0][0]",
+                        ),
                     };
                     return Err(Diag::new(
                         id.span(),
@@ -671,6 +782,11 @@ impl Expander {
                 if f == "newton_recip" {
                     let args: Vec<Expr> = c.args.iter().cloned().collect();
                     *e = self.newton_recip(&args, c.span())?;
+                    return Ok(true);
+                }
+                if f == "det" {
+                    let args: Vec<Expr> = c.args.iter().cloned().collect();
+                    *e = self.det(&args, c.span())?;
                     return Ok(true);
                 }
                 if f != "sum" && f != "dot" {
@@ -717,6 +833,137 @@ impl Expander {
 }
 
 impl Expander {
+    /// `det(M)` or `det(M, K)`: the determinant of the square matrix `M` (an array literal of
+    /// rows, or a declared or `let` matrix), or its leading principal minor of order `K`,
+    /// expanded by Leibniz's formula into a sum of products of elements. Products of the same
+    /// elements are merged (elements compare by their expanded text), so a symmetric matrix
+    /// written with one name per pair gives the short form (4 × 4: 17 monomials, 5 × 5: 73),
+    /// and two `det`s of matrices written alike expand to the same terms in the same order:
+    /// a run-time test in `step` and an invariant on the stored values then read alike to a
+    /// prover. At most [`MAX_DET`] × [`MAX_DET`].
+    fn det(&mut self, args: &[Expr], span: Span) -> Result<Expr> {
+        const HELP: &str =
+            "write `det(M)` or `det(M, K)`: `M` a square matrix (`[[a, b], [c, d]]`, \
+                            or a declared or `let` matrix), `K` the order of the leading principal \
+                            minor (default: all of M)";
+        let (m, k) = match args {
+            [m] => (m, None),
+            [m, k] => (m, Some(k)),
+            _ => return Err(Diag::new(span, "`det` takes 1 or 2 arguments").help(HELP)),
+        };
+        let rows: Vec<Vec<Expr>> = match m {
+            Expr::Array(a) => a
+                .elems
+                .iter()
+                .map(|r| match r {
+                    Expr::Array(_) => self.vector_arg(r),
+                    other => {
+                        Err(Diag::new(other.span(), "expected a row, `[a, b, ..]`").help(HELP))
+                    }
+                })
+                .collect::<Result<_>>()?,
+            Expr::Path(_) => {
+                let (name, dims, index, sp) = self.indexed(m)?;
+                if dims.len() != 2 || !index.is_empty() {
+                    return Err(Diag::new(sp, format!("`{name}` is not a matrix")).help(HELP));
+                }
+                (0..dims[0])
+                    .map(|i| {
+                        (0..dims[1])
+                            .map(|j| path(&Elem::ident(&name, &[i, j]), sp))
+                            .collect()
+                    })
+                    .collect()
+            }
+            other => return Err(Diag::new(other.span(), "expected a matrix").help(HELP)),
+        };
+        let n = rows.len();
+        if rows.iter().any(|r| r.len() != n) {
+            return Err(Diag::new(m.span(), "`det` needs a square matrix").help(HELP));
+        }
+        let k = match k {
+            None => n,
+            Some(k) => {
+                let v = self.int(k)?;
+                if v < 1 || v as usize > n {
+                    return Err(Diag::new(
+                        k.span(),
+                        format!("a leading minor of order {v} of a {n} × {n} matrix"),
+                    )
+                    .help(format!("the order runs from 1 to {n}")));
+                }
+                v as usize
+            }
+        };
+        if k > MAX_DET {
+            return Err(Diag::new(
+                span,
+                format!("`det` of order {k}: at most {MAX_DET} (the expansion has K! products)"),
+            )
+            .help("a larger matrix needs a factorisation (LDLᵀ, UD) in `step` instead"));
+        }
+        // Each element's key: the index of its text among the distinct texts, row-major.
+        let mut texts: Vec<String> = Vec::new();
+        let key: Vec<Vec<usize>> = rows[..k]
+            .iter()
+            .map(|r| {
+                r[..k]
+                    .iter()
+                    .map(|x| {
+                        let t = quote::quote!(#x).to_string();
+                        match texts.iter().position(|u| *u == t) {
+                            Some(i) => i,
+                            None => {
+                                texts.push(t);
+                                texts.len() - 1
+                            }
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        let elem = |id: usize| -> &Expr {
+            let (i, j) = (0..k)
+                .flat_map(|i| (0..k).map(move |j| (i, j)))
+                .find(|&(i, j)| key[i][j] == id)
+                .unwrap_or((0, 0));
+            &rows[i][j]
+        };
+        // Leibniz: Σ_σ sign(σ)·Π_i M[i][σ(i)], merged by the multiset of element keys, in
+        // the order the permutations (lexicographic) first produce each monomial.
+        let mut terms: Vec<(Vec<usize>, i64)> = Vec::new();
+        for (perm, sign) in permutations(k) {
+            let mut mono: Vec<usize> = (0..k).map(|i| key[i][perm[i]]).collect();
+            mono.sort_unstable();
+            match terms.iter_mut().find(|t| t.0 == mono) {
+                Some(t) => t.1 += sign,
+                None => terms.push((mono, sign)),
+            }
+        }
+        let mut acc: Option<Expr> = None;
+        for (mono, c) in terms.into_iter().filter(|t| t.1 != 0) {
+            let mut factors: Vec<Expr> = mono.iter().map(|&id| elem(id).clone()).collect();
+            let first = factors.remove(0);
+            let mut prod = factors.into_iter().fold(
+                syn::parse_quote_spanned!(span=> (#first)),
+                |a: Expr, f| syn::parse_quote_spanned!(span=> #a * (#f)),
+            );
+            let mag = c.unsigned_abs();
+            if mag != 1 {
+                let lit = syn::LitFloat::new(&format!("{mag}.0"), span);
+                prod = syn::parse_quote_spanned!(span=> #lit * #prod);
+            }
+            acc = Some(match (acc, c > 0) {
+                (None, true) => prod,
+                (None, false) => syn::parse_quote_spanned!(span=> 0.0 - #prod),
+                (Some(a), true) => syn::parse_quote_spanned!(span=> #a + #prod),
+                (Some(a), false) => syn::parse_quote_spanned!(span=> #a - #prod),
+            });
+        }
+        let acc: Expr = acc.unwrap_or_else(|| syn::parse_quote_spanned!(span=> 0.0));
+        Ok(syn::parse_quote_spanned!(span=> (#acc)))
+    }
+
     /// `newton_recip(d, [LO, HI], K)`: hoists the claimed `d` and the `K` Newton iterates
     /// into `let`s, declares the seed `2/(LO + HI)` as a `const`, and returns the last
     /// iterate's name (see the module docs).
@@ -1099,16 +1346,16 @@ mod tests {
                 9,
             ),
             (
-                "state q[9][9]: [0.0, 1.0] = 0.0;\nstep { y = 0.0; }",
-                "`q` has 81 elements",
+                "state q[17][17]: [0.0, 1.0] = 0.0;\nstep { y = 0.0; }",
+                "`q` has 289 elements",
                 6,
                 7,
             ),
             (
-                "state q[2][2][2]: [0.0, 1.0] = 0.0;\nstep { y = 0.0; }",
-                "at most two dimensions",
+                "state q[2][2][2][2]: [0.0, 1.0] = 0.0;\nstep { y = 0.0; }",
+                "at most three dimensions",
                 6,
-                15,
+                18,
             ),
             (
                 "state q[2]: [0.0, 1.0] = [0.0, 2.0];\nstep { y = 0.0; }",
@@ -1160,6 +1407,79 @@ mod tests {
             "{ let m_0_0 = x_0 ; let m_0_1 = 1.0 ; let m_1_0 = 2.0 ; let m_1_1 = x_1 ; \
              y = ((m_1_0) * (s_0) + ((m_1_1) * (s_1))) + (m_0_0 + (m_0_1) + (m_1_0) + (m_1_1)) ; }"
         );
+    }
+
+    #[test]
+    fn det_merges_the_products_of_a_symmetric_matrix() {
+        // 2 × 2: a·c − b·b; the matrix `s` of HEAD read whole and as a leading minor.
+        assert_eq!(
+            expanded("step { y = det([[x[0], x[1]], [x[1], x[2]]]); }"),
+            "{ y = ((x_0) * (x_2) - (x_1) * (x_1)) ; }"
+        );
+        assert_eq!(
+            expanded("step { y = det([[x[0], x[1]], [x[1], x[2]]], 1); }"),
+            "{ y = ((x_0)) ; }"
+        );
+        // Counting monomials: 3 × 3 symmetric has 5 (one with coefficient 2), general 6.
+        let count = |e: &str| expanded(e).matches(" * (").count();
+        let sym3 =
+            "step { y = det([[x[0], x[1], x[2]], [x[1], x[0], x[1]], [x[2], x[1], x[0]]]); }";
+        assert!(expanded(sym3).contains("2.0 *"), "{}", expanded(sym3));
+        assert!(count(sym3) < 2 * 6, "{}", expanded(sym3));
+    }
+
+    #[test]
+    fn loops_over_prove_items_name_each_copy() {
+        let src = format!(
+            "controller t {{\n{HEAD}\nstep {{ y = 0.0; }}\nprove {{ for l in 0..2 {{ \
+             invariant small: s[l] <= 1.0; for j in 1..=1 {{ property p {{ ensure x[l + j] >= 0.0; }} }} }} }}\n}}\n"
+        );
+        let x = expand(&parse_str(&src).unwrap()).unwrap();
+        let names: Vec<String> = x
+            .ast
+            .items
+            .iter()
+            .filter_map(|i| match i {
+                Item::Prove { items, .. } => Some(items),
+                _ => None,
+            })
+            .flatten()
+            .map(|p| match p {
+                PropItem::Invariant { name, cond, .. } => {
+                    format!("{name}: {}", quote::quote!(#cond))
+                }
+                PropItem::Property { name, ensures, .. } => {
+                    let e = &ensures[0];
+                    format!("{name}: {}", quote::quote!(#e))
+                }
+                PropItem::For(_) => "unexpanded".into(),
+            })
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "small_0: s_0 <= 1.0",
+                "p_0_1: x_1 >= 0.0",
+                "small_1: s_1 <= 1.0",
+                "p_1_1: x_2 >= 0.0"
+            ]
+        );
+    }
+
+    #[test]
+    fn permutations_carry_their_signs() {
+        for k in 1..=5 {
+            let ps = permutations(k);
+            assert_eq!(ps.len(), (1..=k).product::<usize>());
+            for (p, sign) in &ps {
+                // The sign by counting inversions.
+                let inv = (0..k)
+                    .flat_map(|i| (i + 1..k).map(move |j| (i, j)))
+                    .filter(|&(i, j)| p[i] > p[j])
+                    .count();
+                assert_eq!(*sign, if inv % 2 == 0 { 1 } else { -1 }, "{p:?}");
+            }
+        }
     }
 
     #[test]

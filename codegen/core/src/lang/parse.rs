@@ -169,7 +169,8 @@ fn parse_item(input: ParseStream) -> syn::Result<Item> {
 }
 
 const PROVE_HELP: &str = "a `prove` block holds `invariant NAME: COND;` and \
-`property NAME { forall P in [LO, HI]; assume COND; ensure COND; }` items";
+`property NAME { forall P in [LO, HI]; assume COND; ensure COND; }` items, and `for l in A..B { .. }` \
+loops over them";
 
 fn parse_prop_item(input: ParseStream) -> syn::Result<PropItem> {
     let attrs = input.call(Attribute::parse_outer)?;
@@ -181,7 +182,33 @@ fn parse_prop_item(input: ParseStream) -> syn::Result<PropItem> {
         ));
     }
     let la = input.lookahead1();
-    if la.peek(kw::invariant) {
+    if la.peek(Token![for]) {
+        if !attrs.is_empty() {
+            return Err(syn::Error::new_spanned(
+                &attrs[0],
+                "doc comments stand on the items inside the loop",
+            ));
+        }
+        input.parse::<Token![for]>()?;
+        let var: Ident = input.parse()?;
+        input.parse::<Token![in]>()?;
+        let range = match Expr::parse_without_eager_brace(input)? {
+            Expr::Range(r) => r,
+            other => {
+                return Err(syn::Error::new_spanned(
+                    other,
+                    "expected a range: `for l in 0..N { .. }`",
+                ))
+            }
+        };
+        let body;
+        braced!(body in input);
+        let mut items = Vec::new();
+        while !body.is_empty() {
+            items.push(parse_prop_item(&body)?);
+        }
+        Ok(PropItem::For(Box::new(PropFor { var, range, items })))
+    } else if la.peek(kw::invariant) {
         input.parse::<kw::invariant>()?;
         let name: Ident = input.parse()?;
         input.parse::<Token![:]>()?;

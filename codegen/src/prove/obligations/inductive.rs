@@ -3,15 +3,16 @@
 //! and invariants for every reachable state, for unbounded time.
 
 use super::exact_query::{
-    invariant_query, Side, EXACT_BV, INTEGER, INTEGER_LETS, LINEAR, LINEAR_LETS,
+    invariant_query, Cuts, Side, EXACT_BV, INTEGER, INTEGER_LETS, LINEAR, LINEAR_LETS,
 };
-use super::step::{state_bound, Step};
+use super::step::{state_bound, Step, TESTS_CUT};
 use super::{Goal, Kind, Obligation};
 use crate::ir::SigId;
 use crate::prove::smt::PropEnv;
 use std::collections::BTreeSet;
 
-/// State `id` stays inside its range after one step: bit-precise, first with the products cut
+/// State `id` stays inside its range after one step: bit-precise, first with the products and
+/// the tests cut (every branch stores a value in range), then with the products cut
 /// (saturation on the store, a clamp or a branch that holds the state decide most ranges
 /// without a multiplier), then whole.
 pub(super) fn state_range(step: &Step, id: SigId) -> Vec<Obligation> {
@@ -19,8 +20,14 @@ pub(super) fn state_range(step: &Step, id: SigId) -> Vec<Obligation> {
     let s = plan.prog.sig(id);
     let goal = state_bound(plan, id, &step.enc.post[&id]);
     let needed = step.cone.post_of(&BTreeSet::from([id]));
-    step.cut_then_whole(&needed, &goal)
-        .into_iter()
+    // Cheapest first: with the tests cut too, a state that each branch keeps in range is
+    // proved without the tests that choose the branch.
+    let tests_cut = (
+        step.cut_query(Cuts::Tests, None, &[], &goal, &step.want, false),
+        TESTS_CUT,
+    );
+    std::iter::once(tests_cut)
+        .chain(step.cut_then_whole(&needed, &goal))
         .map(|(query, how)| Obligation {
             name: format!("{} stays inside its range", s.name),
             kind: Kind::Inductive,

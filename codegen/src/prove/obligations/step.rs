@@ -23,6 +23,9 @@ pub const BIT_PRECISE: &str = "bit-precise";
 /// The label of the bit-precise encoding with every product a cut point
 /// ([`Cuts::Products`]).
 pub const PRODUCTS_CUT: &str = "bit-precise, products cut";
+/// The label of the bit-precise encoding with every product and every test a cut point
+/// ([`Cuts::Tests`]).
+pub const TESTS_CUT: &str = "bit-precise, tests cut";
 
 /// What the whole-program queries of a plan share, computed once.
 pub(super) struct Step<'a> {
@@ -184,7 +187,7 @@ impl Step<'_> {
         let cut = |id: ValId| {
             let v = plan.val(id);
             Some(id) != keep
-                && !v.boolean
+                && (!v.boolean || cuts == Cuts::Tests)
                 && !matches!(v.op, Op::Input(_) | Op::Load(_) | Op::Const(_))
                 && cuts.selects(plan, id)
         };
@@ -201,7 +204,7 @@ impl Step<'_> {
         // With the products cut, an invariant that multiplies states is dropped from the
         // premises too (a weaker premise: sound), or its multipliers would be all the query
         // holds (the GAC covariance's determinant: 0.2 s to 3 s for each range of P).
-        let mut premises = self.state_premises_but(cuts == Cuts::Products);
+        let mut premises = self.state_premises_but(matches!(cuts, Cuts::Products | Cuts::Tests));
         if inputs_in_range {
             premises.extend(self.input_premises());
         }
@@ -226,8 +229,12 @@ impl Step<'_> {
         for line in self.enc.text.lines() {
             match definition(line).and_then(|(n, _)| value_of(n).map(|id| (n, id))) {
                 Some((_, id)) if cut(id) => {
-                    if lemma_vals.contains(&id) {
-                        let w = plan.val(id).ty.bits;
+                    // A cut test is a free Boolean; a cut number ranges over its lemma.
+                    let v = plan.val(id);
+                    if v.boolean {
+                        let _ = writeln!(text, "(declare-fun {} () Bool)", vname(id));
+                    } else if lemma_vals.contains(&id) {
+                        let w = v.ty.bits;
                         let _ = writeln!(text, "(declare-fun {} () (_ BitVec {w}))", vname(id));
                     }
                 }
