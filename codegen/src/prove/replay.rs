@@ -210,7 +210,9 @@ pub fn replay(plan: &Plan, ob: &Obligation, cex: &Cex, initial: bool) -> Replay 
     for (i, s) in prog.signals.iter().enumerate() {
         let id = SigId(i);
         pre[i] = match s.kind {
-            SigKind::Input => cex.get(&super::smt::input_var(prog, id)).unwrap_or(0),
+            SigKind::Input => cex
+                .get(&super::smt::input_var(prog, id))
+                .unwrap_or_else(|| absent_input(plan, id)),
             SigKind::State => cex
                 .get(&super::smt::pre_var(prog, id))
                 .unwrap_or_else(|| plan.raw_init(id)),
@@ -449,7 +451,14 @@ pub fn describe(plan: &Plan, ob: &Obligation, cex: &Cex) -> Vec<String> {
     lines
 }
 
-/// The pre-step slots of a counterexample: inputs and states from the model.
+/// The value a replay gives an input that the model does not name (the query left it out:
+/// nothing it asks depends on it): 0, or the nearest value inside the input's range.
+fn absent_input(plan: &Plan, id: SigId) -> i128 {
+    let (lo, hi) = plan.bounds(id);
+    0i128.clamp(lo.min(hi), hi.max(lo))
+}
+
+/// The pre-step slots of a model: inputs and states from it, the rest as the query left them.
 fn pre_slots(plan: &Plan, cex: &Cex) -> Vec<i128> {
     let prog = &plan.prog;
     prog.signals
@@ -458,7 +467,9 @@ fn pre_slots(plan: &Plan, cex: &Cex) -> Vec<i128> {
         .map(|(i, s)| {
             let id = SigId(i);
             match s.kind {
-                SigKind::Input => cex.get(&super::smt::input_var(prog, id)).unwrap_or(0),
+                SigKind::Input => cex
+                    .get(&super::smt::input_var(prog, id))
+                    .unwrap_or_else(|| absent_input(plan, id)),
                 SigKind::State => cex
                     .get(&super::smt::pre_var(prog, id))
                     .unwrap_or_else(|| plan.raw_init(id)),

@@ -3,7 +3,7 @@
 //! reachable state.
 
 use super::exact_query::{invariant_query, Side, EXACT_BV};
-use super::step::{script, state_bound};
+use super::step::{query_of, state_bound};
 use super::{Goal, Kind, Obligation};
 use crate::ir::{SigId, SigKind};
 use crate::lower::Plan;
@@ -52,8 +52,5 @@ fn initial_query(plan: &Plan, goal: &str) -> Query {
         premises.push(format!("(= {v} {})", lit(plan.raw_init(id), w)));
         want.push(v);
     }
-    Query {
-        script: script(&decls, &premises, goal),
-        want,
-    }
+    query_of(&decls, &premises, goal, &want)
 }

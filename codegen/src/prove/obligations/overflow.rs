@@ -9,7 +9,7 @@
 //! is tighter than interval arithmetic on their operands gives get a whole-program query.
 
 use super::exact_query::Cuts;
-use super::step::{script, Step, BIT_PRECISE, PRODUCTS_CUT};
+use super::step::{query_of, Step, BIT_PRECISE, PRODUCTS_CUT};
 use super::{Goal, Kind, Obligation, LINEAR};
 use crate::lower::lir::{Op, ValId};
 use crate::lower::Plan;
@@ -212,10 +212,7 @@ fn local_val_query(plan: &Plan, id: ValId) -> Query {
         }
         None => "true".into(),
     };
-    Query {
-        script: script(&decls, &premises, &goal),
-        want,
-    }
+    query_of(&decls, &premises, &goal, &want)
 }
 
 /// The goal of a whole-program overflow query: value `id`, on its path, inside its interval.
@@ -261,10 +258,7 @@ fn global_val_query(step: &Step, id: ValId) -> Query {
             p
         }
     };
-    Query {
-        script: script(&step.enc.text, &premises, &goal),
-        want: step.want.clone(),
-    }
+    query_of(&step.enc.text, &premises, &goal, &step.want)
 }
 
 /// The state that value `id` loads, when it is the pre-state itself (no store before it in

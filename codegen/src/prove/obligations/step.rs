@@ -14,7 +14,7 @@ use crate::lower::lir::{Op, ValId};
 use crate::lower::Plan;
 use crate::prove::smt::{self, encode_step, in_range, resize, vname, PropEnv, StepEncoding};
 use crate::prove::solver::Query;
-use std::collections::{BTreeSet, HashMap};
+use std::collections::{BTreeSet, HashMap, HashSet};
 use std::fmt::Write;
 
 /// The label of the bit-precise encoding of the step, where an obligation is tried in
@@ -140,10 +140,7 @@ impl<'a> Step<'a> {
         }
         premises.extend(self.lemmas(needed, None));
         premises.extend(extra.iter().cloned());
-        Query {
-            script: script(&self.enc.text, &premises, goal),
-            want: want.to_vec(),
-        }
+        query_of(&self.enc.text, &premises, goal, want)
     }
 }
 
@@ -244,10 +241,7 @@ impl Step<'_> {
                 }
             }
         }
-        Query {
-            script: script(&text, &premises, goal),
-            want: want.to_vec(),
-        }
+        query_of(&text, &premises, goal, want)
     }
 }
 
@@ -321,93 +315,180 @@ pub(super) fn state_bound(plan: &Plan, id: SigId, term: &str) -> String {
     in_range(&t, w, lo, hi)
 }
 
+/// A query of `script`, asking on `sat` for the values of those `want` variables that the
+/// script still declares (the others do not bear on the goal; a replay takes their initial
+/// value, which meets every premise left out with them).
+pub(super) fn query_of(decls: &str, premises: &[String], goal: &str, want: &[String]) -> Query {
+    let script = script(decls, premises, goal);
+    let declared: HashSet<&str> = script
+        .lines()
+        .filter_map(|l| l.strip_prefix("(declare-fun ")?.split_whitespace().next())
+        .collect();
+    let want = want
+        .iter()
+        .filter(|w| declared.contains(w.as_str()))
+        .cloned()
+        .collect();
+    Query { script, want }
+}
+
 /// A QF_BV script: declarations, premises asserted, the goal's negation asserted.
 ///
-/// Only the `define-fun`s that the premises and the goal reach are kept: z3 expands every
-/// definition of a script, used or not, and a step with a few dozen 64-bit products then
-/// takes it most of a minute even on a query that one premise decides (a load of a state
-/// against that state's range: 44 s sliced to 0.01 s on the GAC spec).
+/// Only what bears on the goal is kept:
+/// * the `define-fun`s that the goal and the kept premises reach: z3 expands every definition
+///   of a script, used or not, and a step with a few dozen 64-bit products then takes it most
+///   of a minute even on a query that one premise decides (a load of a state against that
+///   state's range: 44 s sliced to 0.01 s on the GAC spec);
+/// * of the premises over declared variables only (ranges and invariants of the pre-state),
+///   those that share a variable with the goal, the other premises, or a premise kept so far
+///   (to a fixed point): the rest constrain variables that nothing kept mentions, and since
+///   every premise holds of the initial state they are jointly satisfiable, so leaving them
+///   out changes no verdict. A controller with seven estimators then asks about one
+///   estimator without the other six's covariance invariants, and the queries of its copies
+///   become identical up to names (`solver/dedup.rs`);
+/// * the declarations of the variables kept.
 pub(super) fn script(decls: &str, premises: &[String], goal: &str) -> String {
+    let lines: Vec<&str> = decls.lines().collect();
+    let mut defs: HashMap<&str, usize> = HashMap::new();
+    let mut vars: HashMap<&str, usize> = HashMap::new();
+    for (i, l) in lines.iter().enumerate() {
+        if let Some(n) = defined_name(l, "(define-fun ") {
+            defs.insert(n, i);
+        } else if let Some(n) = defined_name(l, "(declare-fun ") {
+            vars.insert(n, i);
+        }
+    }
+    let mut keep = vec![false; lines.len()];
+    // Marks what `text` reaches through the definitions: kept lines, declared variables.
+    let visit = |text: &str, keep: &mut Vec<bool>| {
+        let mut todo: Vec<usize> = Vec::new();
+        let mark = |t: &str, keep: &mut Vec<bool>, todo: &mut Vec<usize>| {
+            if let Some(&i) = defs.get(t).or_else(|| vars.get(t)) {
+                if !keep[i] {
+                    keep[i] = true;
+                    todo.push(i);
+                }
+            }
+        };
+        for t in sexp_tokens(text) {
+            mark(t, keep, &mut todo);
+        }
+        while let Some(i) = todo.pop() {
+            if let Some(body) = lines[i]
+                .strip_prefix("(define-fun ")
+                .and_then(|r| r.split_once(' '))
+                .map(|(_, b)| b)
+            {
+                for t in sexp_tokens(body) {
+                    mark(t, keep, &mut todo);
+                }
+            }
+        }
+    };
+    // Premises over declared variables only, and the rest (kept whole).
+    let plain: Vec<bool> = premises
+        .iter()
+        .map(|p| sexp_tokens(p).all(|t| !defs.contains_key(t)))
+        .collect();
+    let mut taken: Vec<bool> = plain.iter().map(|p| !p).collect();
+    visit(goal, &mut keep);
+    for (p, _) in premises.iter().zip(&taken).filter(|(_, t)| **t) {
+        visit(p, &mut keep);
+    }
+    loop {
+        let mut grew = false;
+        for (k, p) in premises.iter().enumerate() {
+            if taken[k] {
+                continue;
+            }
+            let mut its_vars = sexp_tokens(p).filter_map(|t| vars.get(t)).peekable();
+            let relevant = its_vars.peek().is_none() || its_vars.any(|&i| keep[i]);
+            if relevant {
+                taken[k] = true;
+                visit(p, &mut keep);
+                grew = true;
+            }
+        }
+        if !grew {
+            break;
+        }
+    }
+    let mut named = vec![false; lines.len()];
+    for &i in defs.values().chain(vars.values()) {
+        named[i] = true;
+    }
     let mut s = String::from("(set-logic QF_BV)\n");
-    s.push_str(&slice(
-        decls,
-        premises.iter().map(String::as_str).chain([goal]),
-    ));
-    for p in premises {
+    for (i, l) in lines.iter().enumerate() {
+        if keep[i] || !named[i] {
+            s.push_str(l);
+            s.push('\n');
+        }
+    }
+    for (p, _) in premises.iter().zip(&taken).filter(|(_, t)| **t) {
         let _ = writeln!(s, "(assert {p})");
     }
     let _ = writeln!(s, "(assert (not {goal}))");
     s
 }
 
-/// The lines of `decls` that the `roots` need: every line but the `define-fun`s, and those
-/// `define-fun`s that the roots reach through other definitions. Definitions are one per line
-/// (as `smt::encode_step` writes them); anything else is kept whole.
-fn slice<'a>(decls: &str, roots: impl Iterator<Item = &'a str>) -> String {
-    use std::collections::HashMap;
-    let name_of = |line: &str| -> Option<String> {
-        let rest = line.strip_prefix("(define-fun ")?;
-        rest.split_whitespace().next().map(str::to_string)
-    };
-    let lines: Vec<&str> = decls.lines().collect();
-    let defs: HashMap<String, usize> = lines
-        .iter()
-        .enumerate()
-        .filter_map(|(i, l)| name_of(l).map(|n| (n, i)))
-        .collect();
-    let mut keep = vec![false; lines.len()];
-    let mut todo: Vec<usize> = Vec::new();
-    let visit = |text: &str, todo: &mut Vec<usize>, keep: &mut Vec<bool>| {
-        for t in text
-            .split(|c: char| c == '(' || c == ')' || c.is_whitespace())
-            .filter(|t| !t.is_empty())
-        {
-            if let Some(&i) = defs.get(t) {
-                if !keep[i] {
-                    keep[i] = true;
-                    todo.push(i);
-                }
-            }
-        }
-    };
-    for r in roots {
-        visit(r, &mut todo, &mut keep);
-    }
-    while let Some(i) = todo.pop() {
-        // The body: what follows the defined name.
-        let body = lines[i]
-            .strip_prefix("(define-fun ")
-            .and_then(|r| r.split_once(' '))
-            .map_or("", |(_, b)| b);
-        visit(body, &mut todo, &mut keep);
-    }
-    let mut out = String::with_capacity(decls.len());
-    for (i, l) in lines.iter().enumerate() {
-        if keep[i] || name_of(l).is_none() {
-            out.push_str(l);
-            out.push('\n');
-        }
-    }
-    out
+/// The name a `define-fun`/`declare-fun` line (as `prefix` says) defines or declares.
+fn defined_name<'a>(line: &'a str, prefix: &str) -> Option<&'a str> {
+    line.strip_prefix(prefix)?.split_whitespace().next()
+}
+
+/// The atoms of an S-expression text (no parentheses, no whitespace).
+fn sexp_tokens(text: &str) -> impl Iterator<Item = &str> {
+    text.split(|c: char| c == '(' || c == ')' || c.is_whitespace())
+        .filter(|t| !t.is_empty())
 }
 
 #[cfg(test)]
 mod tests {
-    use super::slice;
+    use super::{query_of, script};
+
+    const DECLS: &str = "(declare-fun x () (_ BitVec 8))\n\
+                         (declare-fun y () (_ BitVec 8))\n\
+                         (declare-fun z () (_ BitVec 8))\n\
+                         (declare-fun w () (_ BitVec 8))\n\
+                         (define-fun v0 () (_ BitVec 8) x)\n\
+                         (define-fun v1 () (_ BitVec 8) (bvmul v0 v0))\n\
+                         (define-fun v2 () (_ BitVec 8) (bvadd v0 x))\n\
+                         (define-fun v10 () (_ BitVec 8) v2)\n";
 
     #[test]
-    fn slice_keeps_what_the_roots_reach_and_every_declaration() {
-        let decls = "(declare-fun x () (_ BitVec 8))\n\
-                     (define-fun v0 () (_ BitVec 8) x)\n\
-                     (define-fun v1 () (_ BitVec 8) (bvmul v0 v0))\n\
-                     (define-fun v2 () (_ BitVec 8) (bvadd v0 x))\n\
-                     (define-fun v10 () (_ BitVec 8) v2)\n";
-        let s = slice(decls, ["(bvsle v10 x)"].into_iter());
+    fn a_script_keeps_what_the_goal_reaches() {
+        let s = script(DECLS, &[], "(bvsle v10 x)");
         assert!(s.contains("(declare-fun x"), "{s}");
         assert!(s.contains("(define-fun v0 "), "{s}");
         assert!(s.contains("(define-fun v2 "), "{s}");
         assert!(s.contains("(define-fun v10 "), "{s}");
-        // v1 is unused; `v1` must not match inside `v10`.
+        // v1 is unused; `v1` must not match inside `v10`. Nor is y, z or w.
         assert!(!s.contains("(define-fun v1 "), "{s}");
+        assert!(!s.contains("(declare-fun y"), "{s}");
+    }
+
+    #[test]
+    fn premises_are_kept_when_they_reach_the_goal_through_each_other() {
+        // x ~ y (the goal), y ~ z (through the premise on both), w alone: w's premise goes.
+        let premises = [
+            "(bvult z #x05)".to_string(),
+            "(bvult y z)".to_string(),
+            "(bvult w #x03)".to_string(),
+            "(bvule v0 y)".to_string(),
+            "true".to_string(),
+        ];
+        let want: Vec<String> = ["x", "y", "z", "w"].map(String::from).to_vec();
+        let q = query_of(DECLS, &premises, "(bvsle v10 x)", &want);
+        for kept in [
+            "(assert (bvult z #x05))",
+            "(assert (bvult y z))",
+            "(assert (bvule v0 y))",
+            "(assert true)",
+        ] {
+            assert!(q.script.contains(kept), "{kept}: {}", q.script);
+        }
+        assert!(!q.script.contains("bvult w"), "{}", q.script);
+        assert!(!q.script.contains("(declare-fun w"), "{}", q.script);
+        assert_eq!(q.want, ["x", "y", "z"]);
     }
 }
