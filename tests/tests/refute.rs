@@ -17,6 +17,8 @@ qloop_macros::controller!("fixtures/refute/recip_tracker_gain_too_large.qloop");
 qloop_macros::controller!("fixtures/refute/rls_unbounded_covariance.qloop");
 qloop_macros::controller!("fixtures/refute/table_claim_too_small.qloop");
 qloop_macros::controller!("fixtures/refute/determinant_bound_too_high.qloop");
+qloop_macros::controller!("fixtures/refute/supervisor_switches_early.qloop");
+qloop_macros::controller!("fixtures/refute/pole_placement_sign_error.qloop");
 
 fn fixture(name: &str) -> (String, PathBuf) {
     let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -61,6 +63,14 @@ fn cex(o: &Outcome, var: &str) -> i128 {
         .as_ref()
         .and_then(|c| c.values.iter().find(|(n, ..)| n == var).map(|(_, v, _)| *v))
         .unwrap_or_else(|| panic!("no `{var}` in the counterexample"))
+}
+
+/// [`cex`], or `default` when the model does not name `var` (the query left it out).
+fn cex_or(o: &Outcome, var: &str, default: i128) -> i128 {
+    o.cex
+        .as_ref()
+        .and_then(|c| c.values.iter().find(|(n, ..)| n == var).map(|(_, v, _)| *v))
+        .unwrap_or(default)
 }
 
 fn slot(plan: &Plan, name: &str) -> usize {
@@ -189,13 +199,17 @@ fn recip_tracker_gain_too_large_diverges_in_compiled_code() {
 fn rls_unbounded_covariance_leaves_its_range_in_compiled_code() {
     let (_, o) = refuted("rls_unbounded_covariance");
     let mut c = rls_unbounded_covariance::Controller::new();
+    // θ does not bear on P's update, so the query leaves it out and the model does not name
+    // it: the replay (and this run) takes its initial value.
+    let theta = cex_or(&o, "pre_theta", c.states().theta.to_bits().into()) as i16;
     c.set_states(rls_unbounded_covariance::States {
-        theta: FixedI16::from_bits(cex(&o, "pre_theta") as i16),
+        theta: FixedI16::from_bits(theta),
         p: FixedI16::from_bits(cex(&o, "pre_p") as i16),
     });
     c.step(rls_unbounded_covariance::Inputs {
         phi: FixedI16::from_bits(cex(&o, "in_phi") as i16),
-        y: FixedI16::from_bits(cex(&o, "in_y") as i16),
+        // y does not bear on P either: the replay's value for an absent input, 0 (in range).
+        y: FixedI16::from_bits(cex_or(&o, "in_y", 0) as i16),
     });
     let p = c.states().p.to_num::<f64>();
     assert!(
@@ -241,7 +255,8 @@ fn determinant_bound_too_high_is_broken_by_compiled_code() {
     });
     c.step(determinant_bound_too_high::Inputs {
         x: FixedI16::from_bits(cex(&o, "in_x") as i16),
-        y: FixedI16::from_bits(cex(&o, "in_y") as i16),
+        // y does not bear on P either: the replay's value for an absent input, 0 (in range).
+        y: FixedI16::from_bits(cex_or(&o, "in_y", 0) as i16),
     });
     let s = c.states();
     let (na, nb) = (s.a.to_num::<f64>(), s.b.to_num::<f64>());
@@ -269,10 +284,70 @@ fn corpus_is_complete() {
             "csd_partial_sum",
             "determinant_bound_too_high",
             "missing_saturation",
+            "pole_placement_sign_error",
             "property_sign_error",
             "recip_tracker_gain_too_large",
             "rls_unbounded_covariance",
+            "supervisor_switches_early",
             "table_claim_too_small"
         ]
+    );
+}
+
+/// The supervisor with an off-by-one in its residence test (issue 17): from the refuting
+/// pre-state, the compiled step switches with fewer than N_R = 2 periods since the last
+/// switch.
+#[test]
+fn supervisor_switching_early_switches_early_in_compiled_code() {
+    use fixed::types::extra::{U0, U24};
+    use fixed::FixedU8;
+    let (_, o) = refuted("supervisor_switches_early");
+    let mut c = supervisor_switches_early::Controller::new();
+    let init = c.states();
+    let hist: [[FixedI32<U24>; 8]; 7] = std::array::from_fn(|l| {
+        std::array::from_fn(|j| {
+            let v = cex_or(
+                &o,
+                &format!("pre_hist_{l}_{j}"),
+                init.hist[l][j].to_bits().into(),
+            );
+            FixedI32::<U24>::from_bits(v as i32)
+        })
+    });
+    let active = cex_or(&o, "pre_active", init.active.to_bits().into()) as u8;
+    let since = cex_or(&o, "pre_since", init.since.to_bits().into()) as u8;
+    c.set_states(supervisor_switches_early::States {
+        hist,
+        active: FixedU8::<U0>::from_bits(active),
+        since: FixedU8::<U0>::from_bits(since),
+    });
+    let e2: [FixedI32<U24>; 7] = std::array::from_fn(|l| {
+        FixedI32::<U24>::from_bits(cex_or(&o, &format!("in_e2_{l}"), 0) as i32)
+    });
+    c.step(supervisor_switches_early::Inputs { e2 });
+    let after = c.states().active.to_bits();
+    assert!(
+        after != active && since < 2,
+        "no early switch: active {active} -> {after}, since {since}"
+    );
+}
+
+/// A pole-placement claim with a sign error (issue 17): the compiled controller's initial
+/// law places the poles (the correct claim holds within TOL) and so breaks the claim with
+/// `− lb1·s0`, which the prover refutes on the initial state.
+#[test]
+fn pole_placement_sign_error_is_broken_by_the_compiled_initial_law() {
+    let (_, o) = refuted("pole_placement_sign_error");
+    assert!(o.ob.name.contains("holds initially"), "{}", o.ob.name);
+    let s = pole_placement_sign_error::Controller::new().states();
+    let f = |x: FixedI32<fixed::types::extra::U28>| x.to_num::<f64>();
+    let g = |x: FixedI32<fixed::types::extra::U24>| x.to_num::<f64>();
+    let (la1, lb1, r1, s0) = (f(s.la1), f(s.lb1), g(s.r1), g(s.s0));
+    const M1: f64 = -0.9012686441554565;
+    const TOL: f64 = 0.0009765625;
+    assert!((r1 + la1 + lb1 * s0 - M1).abs() <= TOL, "the law is wrong");
+    assert!(
+        (r1 + la1 - lb1 * s0 - M1).abs() > TOL,
+        "the sign error holds"
     );
 }

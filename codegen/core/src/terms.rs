@@ -17,7 +17,7 @@ use crate::lower::lir::{LStmt, Op, ValId};
 use crate::lower::Plan;
 use crate::prop_eval::{self, Arith, ExactDomain};
 use std::cmp::Ordering;
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 use std::hash::{Hash, Hasher};
 use std::rc::Rc;
 
@@ -358,34 +358,93 @@ pub fn mul(a: Rc<T>, b: Rc<T>) -> Rc<T> {
     from_lin((m, ca * cb))
 }
 
-/// The variables a term mentions.
+/// The variables a term mentions (not those inside the conditions of its `Ite`s), in order of
+/// first appearance; each shared node is visited once.
 pub fn vars_of(t: &Rc<T>) -> Vec<Rc<T>> {
-    fn go(t: &Rc<T>, out: &mut Vec<Rc<T>>) {
+    fn go(
+        t: &Rc<T>,
+        seen: &mut HashSet<*const T>,
+        found: &mut BTreeSet<Rc<T>>,
+        out: &mut Vec<Rc<T>>,
+    ) {
+        if !seen.insert(Rc::as_ptr(t)) {
+            return;
+        }
         match &**t {
             T::Var(..) => {
-                if !out.contains(t) {
+                if found.insert(t.clone()) {
                     out.push(t.clone());
                 }
             }
             T::Const(_) => {}
             T::Add(a, b) | T::Sub(a, b) | T::Mul(a, b) => {
-                go(a, out);
-                go(b, out);
+                go(a, seen, found, out);
+                go(b, seen, found, out);
             }
-            T::Neg(a) | T::Shl(a, _) | T::Shr(a, _) => go(a, out),
+            T::Neg(a) | T::Shl(a, _) | T::Shr(a, _) => go(a, seen, found, out),
             T::Ite(_, a, b) => {
-                go(a, out);
-                go(b, out);
+                go(a, seen, found, out);
+                go(b, seen, found, out);
             }
             T::Sum(terms, _) => {
                 for (_, a) in terms {
-                    go(a, out);
+                    go(a, seen, found, out);
                 }
             }
         }
     }
     let mut out = Vec::new();
-    go(t, &mut out);
+    go(t, &mut HashSet::new(), &mut BTreeSet::new(), &mut out);
+    out
+}
+
+/// The names of every variable a condition mentions, those inside nested conditions
+/// included; each shared node is visited once.
+pub fn var_names(b: &Rc<B>) -> BTreeSet<String> {
+    fn t_go(t: &Rc<T>, seen: &mut HashSet<usize>, out: &mut BTreeSet<String>) {
+        if !seen.insert(Rc::as_ptr(t) as usize) {
+            return;
+        }
+        match &**t {
+            T::Var(n, ..) => {
+                out.insert(n.clone());
+            }
+            T::Const(_) => {}
+            T::Add(a, b) | T::Sub(a, b) | T::Mul(a, b) => {
+                t_go(a, seen, out);
+                t_go(b, seen, out);
+            }
+            T::Neg(a) | T::Shl(a, _) | T::Shr(a, _) => t_go(a, seen, out),
+            T::Ite(c, a, b) => {
+                b_go(c, seen, out);
+                t_go(a, seen, out);
+                t_go(b, seen, out);
+            }
+            T::Sum(terms, _) => {
+                for (_, a) in terms {
+                    t_go(a, seen, out);
+                }
+            }
+        }
+    }
+    fn b_go(b: &Rc<B>, seen: &mut HashSet<usize>, out: &mut BTreeSet<String>) {
+        if !seen.insert(Rc::as_ptr(b) as usize) {
+            return;
+        }
+        match &**b {
+            B::Cmp(_, x, y) => {
+                t_go(x, seen, out);
+                t_go(y, seen, out);
+            }
+            B::And(x, y) | B::Or(x, y) => {
+                b_go(x, seen, out);
+                b_go(y, seen, out);
+            }
+            B::Not(x) => b_go(x, seen, out),
+        }
+    }
+    let mut out = BTreeSet::new();
+    b_go(b, &mut HashSet::new(), &mut out);
     out
 }
 

@@ -9,7 +9,9 @@
 
 use crate::ir::CmpOp;
 use qloop_core::terms::{mentions, Ranges};
-pub use qloop_core::terms::{mul, product, terms, terms_cut, vars_of, PropTerms, Terms, B, T};
+pub use qloop_core::terms::{
+    mul, product, terms, terms_cut, var_names, vars_of, PropTerms, Terms, B, T,
+};
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write;
 use std::rc::Rc;

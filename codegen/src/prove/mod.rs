@@ -17,6 +17,7 @@ use crate::lower::Plan;
 use obligations::{Goal, Kind, Obligation};
 use replay::{Cex, Replay};
 use solver::{Answer, Config, Query, Run, Solver};
+use std::collections::HashMap;
 use std::fmt::Write;
 use std::time::Instant;
 
@@ -138,10 +139,15 @@ pub fn prove_filtered(
     let mut queries: Vec<Query> = obs.iter().map(|o| o.query.clone()).collect();
     // The encodings of one question form a group: a solver's first proof cancels its runs on
     // the others.
+    let mut first_of: HashMap<(Goal, obligations::Kind), usize> = HashMap::new();
     let mut groups: Vec<usize> = obs
         .iter()
         .enumerate()
-        .map(|(i, o)| obs.iter().position(|x| alternatives(x, o)).unwrap_or(i))
+        .map(|(i, o)| match o.encoding {
+            // Alternatives (`alternatives`): encodings of one goal and kind.
+            Some(_) => *first_of.entry((o.goal.clone(), o.kind)).or_insert(i),
+            None => i,
+        })
         .collect();
     // One witness query per property under test (own group): its premises must be
     // satisfiable, or the property holds vacuously.
@@ -358,6 +364,8 @@ fn merge_portfolio(outcomes: Vec<Outcome>) -> Vec<Outcome> {
         Answer::Error(_) => 0,
     };
     let mut out: Vec<Outcome> = Vec::new();
+    // The merged outcome of each (goal, kind) that has encodings.
+    let mut merged_at: HashMap<(Goal, obligations::Kind), usize> = HashMap::new();
     // Per merged outcome: (solver, encoding) of each solver's first proof.
     let mut provers: Vec<Vec<(Solver, &str)>> = Vec::new();
     // The encodings on which two solvers disagreed, with their notes.
@@ -382,8 +390,12 @@ fn merge_portfolio(outcomes: Vec<Outcome>) -> Vec<Outcome> {
             .filter(|r| r.answer == Answer::Unsat)
             .map(|r| (r.solver, how))
             .collect();
-        let same = out.iter().position(|x| alternatives(&x.ob, &o.ob));
+        let same = merged_at
+            .get(&(o.ob.goal.clone(), o.ob.kind))
+            .copied()
+            .filter(|&k| alternatives(&out[k].ob, &o.ob));
         let Some(k) = same else {
+            merged_at.insert((o.ob.goal.clone(), o.ob.kind), out.len());
             out.push(o);
             provers.push(proofs);
             continue;

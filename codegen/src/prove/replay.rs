@@ -446,7 +446,20 @@ pub fn describe(plan: &Plan, ob: &Obligation, cex: &Cex) -> Vec<String> {
                 .or_insert_with(|| format!("operand {n} = raw {v} ({w} bits)"));
         }
     }
+    let named = by_name.len();
     let mut lines: Vec<String> = by_name.into_values().collect();
+    let step_vars = prog
+        .signals
+        .iter()
+        .filter(|s| matches!(s.kind, SigKind::Input | SigKind::State))
+        .count();
+    if !matches!(ob.goal, Goal::Val { local: true, .. }) && named < step_vars {
+        lines.push(
+            "every other state at its initial value, every other input at 0 or the nearest \
+             value in its range (they do not bear on this obligation: its query leaves them out)"
+                .into(),
+        );
+    }
     lines.extend(explain(plan, ob, cex));
     lines
 }

@@ -258,9 +258,14 @@ pub fn nest(dims: &[usize], mut items: Vec<TokenStream>) -> TokenStream {
     match dims {
         [] => items.pop().unwrap_or_default(),
         [_] => quote::quote! { [#(#items),*] },
-        [_, cols, ..] => {
-            let rows = items.chunks(*cols).map(|r| quote::quote! { [#(#r),*] });
-            quote::quote! { [#(#rows),*] }
+        [_, rest @ ..] => {
+            // Each outer element is an array of the rest, row-major.
+            let size: usize = rest.iter().product::<usize>().max(1);
+            let parts = items
+                .chunks(size)
+                .map(|c| nest(rest, c.to_vec()))
+                .collect::<Vec<_>>();
+            quote::quote! { [#(#parts),*] }
         }
     }
 }

@@ -862,15 +862,23 @@ impl Expander {
                     }
                 })
                 .collect::<Result<_>>()?,
-            Expr::Path(_) => {
+            Expr::Path(_) | Expr::Index(_) => {
+                // A matrix, or one matrix of a stack (`P[l]`).
                 let (name, dims, index, sp) = self.indexed(m)?;
-                if dims.len() != 2 || !index.is_empty() {
-                    return Err(Diag::new(sp, format!("`{name}` is not a matrix")).help(HELP));
+                if dims.len() != index.len() + 2 {
+                    return Err(
+                        Diag::new(sp, format!("this is not a matrix of `{name}`")).help(HELP)
+                    );
                 }
-                (0..dims[0])
+                let (r, c) = (dims[index.len()], dims[index.len() + 1]);
+                (0..r)
                     .map(|i| {
-                        (0..dims[1])
-                            .map(|j| path(&Elem::ident(&name, &[i, j]), sp))
+                        (0..c)
+                            .map(|j| {
+                                let mut full = index.clone();
+                                full.extend([i, j]);
+                                path(&Elem::ident(&name, &full), sp)
+                            })
                             .collect()
                     })
                     .collect()
@@ -878,7 +886,7 @@ impl Expander {
             other => return Err(Diag::new(other.span(), "expected a matrix").help(HELP)),
         };
         let n = rows.len();
-        if rows.iter().any(|r| r.len() != n) {
+        if n == 0 || rows.iter().any(|r| r.len() != n) {
             return Err(Diag::new(m.span(), "`det` needs a square matrix").help(HELP));
         }
         let k = match k {

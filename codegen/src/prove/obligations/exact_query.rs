@@ -3,6 +3,7 @@
 //! integers or bit-vectors, products exact or over-approximated. The invariant and property
 //! obligations try each question in several of them (a portfolio).
 
+use super::step::Step;
 use super::ParamGrid;
 use crate::ir::{PCond, SigId, SigKind};
 use crate::lower::lir::{Op, ValId};
@@ -11,7 +12,7 @@ use crate::prove::exact::{self, PropTerms, B, T};
 use crate::prove::smt::signed_bits;
 use crate::prove::solver::Query;
 use qloop_core::terms::{add, param_shift, param_state_pairs, shl};
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write;
 use std::rc::Rc;
 
@@ -34,7 +35,7 @@ pub struct ExactEncoding {
 /// value's proved interval ([`qloop_core::terms::terms_cut`] for exact terms,
 /// [`super::step::Step::cut_query`] bit for bit). Sound because every interval is an overflow
 /// obligation of its own; a counterexample may be spurious and is replayed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Cuts {
     /// No cut: every value is its definition.
     None,
@@ -52,6 +53,12 @@ pub enum Cuts {
     /// runs, and cvc5 took 18 s per entry of P with them, products cut). Bit-precise
     /// queries only ([`super::step::Step::cut_query`]).
     Tests,
+    /// Everything but additions, subtractions, negations, shifts, casts and constants: a
+    /// shift-add network (a constant factor as `x·2^a ± x·2^b ± ..`) is decided over the
+    /// interval of its operand `x`, whatever computed `x` (the reference feed of
+    /// `milling_multimodel.qloop`, 0.3 times a law coefficient that seven branches select,
+    /// took z3 40 s per partial sum with the products cut). Bit-precise queries only.
+    NonLinear,
 }
 
 impl Cuts {
@@ -63,6 +70,10 @@ impl Cuts {
             Cuts::Lets => v.name.is_some() && !matches!(v.op, Op::Input(_)),
             Cuts::Products => matches!(v.op, Op::Mul(..)),
             Cuts::Tests => matches!(v.op, Op::Mul(..)) || v.boolean,
+            Cuts::NonLinear => !matches!(
+                v.op,
+                Op::Add(..) | Op::Sub(..) | Op::Neg(_) | Op::Shl(..) | Op::Shr(..) | Op::Cast(_)
+            ),
         }
     }
 }
@@ -110,7 +121,7 @@ pub const INTEGER_LETS: ExactEncoding = ExactEncoding {
 };
 
 /// Which question an exact query asks.
-#[derive(Clone, Copy, PartialEq, Eq)]
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
 pub(super) enum Side {
     /// The initial state (states fixed to their initial values, goal over pre-state).
     Initial,
@@ -123,7 +134,7 @@ pub(super) enum Side {
 /// A query over exact terms: premises (state ranges, invariants, input ranges for
 /// properties, parameter ranges, `assumes`) ⇒ `goal`.
 pub(super) fn exact_query(
-    plan: &Plan,
+    step: &Step,
     side: Side,
     assumes: &[PCond],
     goal_conds: &[PCond],
@@ -131,6 +142,7 @@ pub(super) fn exact_query(
     grids: &[ParamGrid],
     how: ExactEncoding,
 ) -> Option<Query> {
+    let plan = step.plan;
     let prog = &plan.prog;
     let ranges = |id: SigId| -> (i128, i128) {
         let q = plan.format(id);
@@ -141,7 +153,17 @@ pub(super) fn exact_query(
             _ => (q.ty.min(), q.ty.max()),
         }
     };
-    let terms = exact::terms_cut(plan, &ranges, &|id| how.cuts.selects(plan, id));
+    // The plan's terms depend on the side (the ranges) and the cuts only: built once each.
+    let terms = step
+        .terms
+        .borrow_mut()
+        .entry((side, how.cuts))
+        .or_insert_with(|| {
+            Rc::new(exact::terms_cut(plan, &ranges, &|id| {
+                how.cuts.selects(plan, id)
+            }))
+        })
+        .clone();
     // Over-approximations (products as fresh variables bounded by their interval, or by
     // their linear envelope) are sound: more behaviours, not fewer; a counterexample they
     // find may be spurious, and the replay says so.
@@ -170,7 +192,52 @@ pub(super) fn exact_query(
         params: params_t.clone(),
         pre_as_post: true,
     };
-    // Every variable inside its assumed range.
+    let g = match side {
+        Side::Step => goal(&post_env)?,
+        _ => goal(&pre_env)?,
+    };
+    let invariants: Vec<Rc<B>> = if side != Side::Initial {
+        prog.invariants
+            .iter()
+            .map(|inv| pre_env.cond(&inv.cond))
+            .collect::<Option<_>>()?
+    } else {
+        Vec::new()
+    };
+    let assumed: Vec<Rc<B>> = assumes
+        .iter()
+        .map(|a| pre_env.cond(a))
+        .collect::<Option<_>>()?;
+    // Only what bears on the goal (as `step::script` does for bit-precise queries): the
+    // invariants that share a variable with the goal, the assumptions or an invariant kept
+    // so far, to a fixed point, and the ranges of the variables kept. What is left out
+    // constrains other variables only and holds of the initial state, so no verdict changes.
+    let mut relevant: BTreeSet<String> = exact::var_names(&g);
+    for a in &assumed {
+        relevant.extend(exact::var_names(a));
+    }
+    for (t, _) in &params_t {
+        relevant.extend(exact::vars_of(t).iter().filter_map(|v| match &**v {
+            T::Var(n, ..) => Some(n.clone()),
+            _ => None,
+        }));
+    }
+    let inv_vars: Vec<BTreeSet<String>> = invariants.iter().map(exact::var_names).collect();
+    let mut kept = vec![false; invariants.len()];
+    loop {
+        let mut grew = false;
+        for (k, vs) in inv_vars.iter().enumerate() {
+            if !kept[k] && (vs.is_empty() || !vs.is_disjoint(&relevant)) {
+                kept[k] = true;
+                relevant.extend(vs.iter().cloned());
+                grew = true;
+            }
+        }
+        if !grew {
+            break;
+        }
+    }
+    // Every variable kept inside its assumed range.
     let mut vars: Vec<Rc<T>> = terms.pre.values().cloned().collect();
     vars.extend(terms.cuts.iter().cloned());
     vars.extend(params_t.iter().map(|(t, _)| t.clone()));
@@ -181,22 +248,18 @@ pub(super) fn exact_query(
     );
     let vars: Vec<Rc<T>> = vars.iter().flat_map(exact::vars_of).collect();
     for v in &vars {
-        if let T::Var(_, _, _, lo, hi) = &**v {
-            premises.push(em.in_range(v, *lo, *hi));
+        if let T::Var(name, _, _, lo, hi) = &**v {
+            if relevant.contains(name) || em.keep.contains(name) {
+                premises.push(em.in_range(v, *lo, *hi));
+            }
         }
     }
-    if side != Side::Initial {
-        for inv in &prog.invariants {
-            premises.push(em.boolean(&pre_env.cond(&inv.cond)?));
-        }
+    for (inv, _) in invariants.iter().zip(&kept).filter(|(_, k)| **k) {
+        premises.push(em.boolean(inv));
     }
-    for a in assumes {
-        premises.push(em.boolean(&pre_env.cond(a)?));
+    for a in &assumed {
+        premises.push(em.boolean(a));
     }
-    let g = match side {
-        Side::Step => goal(&post_env)?,
-        _ => goal(&pre_env)?,
-    };
     let goal = em.boolean(&g);
     // Widths sized from intervals that did not fit an i128 could wrap: no such encoding.
     if em.overflowed() {
@@ -265,11 +328,11 @@ pub(super) fn finish(mut em: exact::Emitter, mut premises: Vec<String>, goal: &s
 /// Invariant `k` of the program as an exact-term question: initially ([`Side::Initial`]) or
 /// after one step ([`Side::Step`]), written as `how` says.
 pub(super) fn invariant_query(
-    plan: &Plan,
+    step: &Step,
     side: Side,
     k: usize,
     how: ExactEncoding,
 ) -> Option<Query> {
-    let inv = &plan.prog.invariants[k];
-    exact_query(plan, side, &[], &[], &|pt| pt.cond(&inv.cond), &[], how)
+    let inv = &step.plan.prog.invariants[k];
+    exact_query(step, side, &[], &[], &|pt| pt.cond(&inv.cond), &[], how)
 }

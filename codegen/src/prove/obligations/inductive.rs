@@ -49,7 +49,7 @@ pub(super) fn invariant(step: &Step, k: usize) -> Vec<Obligation> {
     let name = format!("invariant {} is inductive", inv.name);
     let mut out = Vec::new();
     for how in [LINEAR, LINEAR_LETS, INTEGER, INTEGER_LETS, EXACT_BV] {
-        if let Some(query) = invariant_query(plan, Side::Step, k, how) {
+        if let Some(query) = invariant_query(step, Side::Step, k, how) {
             out.push(Obligation {
                 name: name.clone(),
                 kind: Kind::Inductive,

@@ -3,7 +3,7 @@
 //! reachable state.
 
 use super::exact_query::{invariant_query, Side, EXACT_BV};
-use super::step::{query_of, state_bound};
+use super::step::{query_of, state_bound, Step};
 use super::{Goal, Kind, Obligation};
 use crate::ir::{SigId, SigKind};
 use crate::lower::Plan;
@@ -27,12 +27,12 @@ pub(super) fn state_range(plan: &Plan, id: SigId) -> Obligation {
 
 /// Invariant `k` holds in the initial state (exact terms, as bit-vectors); `None` when the
 /// invariant cannot be encoded.
-pub(super) fn invariant(plan: &Plan, k: usize) -> Option<Obligation> {
-    let inv = &plan.prog.invariants[k];
+pub(super) fn invariant(step: &Step, k: usize) -> Option<Obligation> {
+    let inv = &step.plan.prog.invariants[k];
     Some(Obligation {
         name: format!("invariant {} holds initially", inv.name),
         kind: Kind::Initial,
-        query: invariant_query(plan, Side::Initial, k, EXACT_BV)?,
+        query: invariant_query(step, Side::Initial, k, EXACT_BV)?,
         goal: Goal::Invariant(k),
         line: inv.span.start().line,
         encoding: None,

@@ -38,7 +38,7 @@ use crate::lower::Plan;
 use step::Step;
 
 /// What kind of obligation, as in the JSON report.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Kind {
     /// No value leaves its interval / width.
     Overflow,
@@ -91,7 +91,7 @@ impl Kind {
 }
 
 /// What a counterexample must show when replayed.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub enum Goal {
     /// Value leaves its interval. `local`: the query was over the operands only.
     Val {
@@ -148,7 +148,7 @@ pub fn with_witnesses(plan: &Plan) -> (Vec<Obligation>, Vec<Option<Query>>) {
         out.extend(inductive::state_range(&step, id));
     }
     for k in 0..prog.invariants.len() {
-        out.extend(initial::invariant(plan, k));
+        out.extend(initial::invariant(&step, k));
         out.extend(inductive::invariant(&step, k));
     }
     for k in 0..prog.properties.len() {

@@ -9,7 +9,7 @@
 //! is tighter than interval arithmetic on their operands gives get a whole-program query.
 
 use super::exact_query::Cuts;
-use super::step::{query_of, Step, BIT_PRECISE, PRODUCTS_CUT};
+use super::step::{query_of, Step, BIT_PRECISE, LINEAR_CONE, PRODUCTS_CUT};
 use super::{Goal, Kind, Obligation, LINEAR};
 use crate::lower::lir::{Op, ValId};
 use crate::lower::Plan;
@@ -45,12 +45,25 @@ pub(super) fn obligations(step: &Step) -> Vec<Obligation> {
             // A load of the pre-state has a one-premise query; anything else is tried with
             // the products cut first (a clamp or a saturated store bounds most values
             // without the multipliers behind them), then whole.
-            let cut = pre_state_load(step, id).is_none().then(|| {
-                let goal = global_goal(step, id);
-                let q = step.cut_query(Cuts::Products, Some(id), &[], &goal, &step.want, false);
-                (q, PRODUCTS_CUT)
-            });
-            cut.into_iter()
+            // A shift-add network is tried first over its linear cone alone.
+            let cuts: Vec<(Cuts, &'static str)> = if pre_state_load(step, id).is_some() {
+                Vec::new()
+            } else if matches!(v.op, Op::Add(..) | Op::Sub(..) | Op::Neg(_)) {
+                vec![
+                    (Cuts::NonLinear, LINEAR_CONE),
+                    (Cuts::Products, PRODUCTS_CUT),
+                ]
+            } else {
+                vec![(Cuts::Products, PRODUCTS_CUT)]
+            };
+            let goal = global_goal(step, id);
+            cuts.into_iter()
+                .map(|(c, how)| {
+                    (
+                        step.cut_query(c, Some(id), &[], &goal, &step.want, false),
+                        how,
+                    )
+                })
                 .chain([(global_val_query(step, id), BIT_PRECISE)])
                 .collect()
         } else {
@@ -243,22 +256,25 @@ fn global_goal(step: &Step, id: ValId) -> String {
 fn global_val_query(step: &Step, id: ValId) -> Query {
     let plan = step.plan;
     let goal = global_goal(step, id);
-    let premises = match pre_state_load(step, id) {
+    match pre_state_load(step, id) {
         // A load of a state not yet stored in this step is the pre-state itself, and its
         // interval holds the state's range: that premise alone proves it. The other
         // premises (invariants, lemmas with wide products) only slow the solver down.
-        Some(sig) => vec![super::step::state_bound(
-            plan,
-            sig,
-            &smt::pre_var(&plan.prog, sig),
-        )],
-        None => {
-            let mut p = step.state_premises();
-            p.extend(step.lemmas(&step.cone.val[id.0], Some(id)));
-            p
-        }
-    };
-    query_of(&step.enc.text, &premises, &goal, &step.want)
+        Some(sig) => step.query_whole(
+            &[super::step::state_bound(
+                plan,
+                sig,
+                &smt::pre_var(&plan.prog, sig),
+            )],
+            &goal,
+            &step.want,
+        ),
+        None => step.query_with_states(
+            &step.lemmas(&step.cone.val[id.0], Some(id)),
+            &goal,
+            &step.want,
+        ),
+    }
 }
 
 /// The state that value `id` loads, when it is the pre-state itself (no store before it in

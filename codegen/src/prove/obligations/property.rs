@@ -29,7 +29,7 @@ pub(super) fn portfolio(step: &Step, k: usize) -> Vec<Obligation> {
     };
     let exact = |how: ExactEncoding| {
         let query = exact_query(
-            plan,
+            step,
             Side::Property,
             &p.assumes,
             &p.ensures,

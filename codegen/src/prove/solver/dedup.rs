@@ -87,7 +87,7 @@ fn tokens(script: &str) -> Vec<&str> {
 /// order of first occurrence (module docs).
 pub(super) fn canonical(q: &Query) -> String {
     let toks = tokens(&q.script);
-    let declared: Vec<&str> = toks
+    let declared: std::collections::HashSet<&str> = toks
         .windows(2)
         .filter(|w| matches!(w[0], "declare-fun" | "declare-const" | "define-fun"))
         .map(|w| w[1])
