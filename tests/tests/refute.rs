@@ -332,9 +332,9 @@ fn supervisor_switching_early_switches_early_in_compiled_code() {
     );
 }
 
-/// A pole-placement claim with a sign error (issue 17): the compiled controller's initial
-/// law places the poles (the correct claim holds within TOL) and so breaks the claim with
-/// `− lb1·s0`, which the prover refutes on the initial state.
+/// A pole placement with a sign error in its equation (issue 17; `− b1·s0` in the check and
+/// the claim): the compiled controller's initial law places the poles (the correct equation
+/// holds within TOL) and so breaks the claim, which the prover refutes on the initial state.
 #[test]
 fn pole_placement_sign_error_is_broken_by_the_compiled_initial_law() {
     let (_, o) = refuted("pole_placement_sign_error");
