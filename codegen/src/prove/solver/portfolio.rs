@@ -79,14 +79,13 @@ pub fn run_all_batched(
     };
     let sub_queries: Vec<Query> = c.runs.iter().map(|&qi| queries[qi].clone()).collect();
     // Group names in the subset: the position of the group's first query.
+    // Group names in the subset: the position of the group's first query (one pass, not a
+    // search per query: a big spec has tens of thousands).
+    let mut first_at: std::collections::HashMap<usize, usize> = std::collections::HashMap::new();
     let sub_groups: Vec<usize> = pick(groups)
-        .iter()
-        .map(|g| {
-            c.runs
-                .iter()
-                .position(|&qi| groups.get(qi).copied().unwrap_or(qi) == *g)
-                .unwrap_or(0)
-        })
+        .into_iter()
+        .enumerate()
+        .map(|(ri, g)| *first_at.entry(g).or_insert(ri))
         .collect();
     let sub_small: Vec<bool> = c
         .runs
