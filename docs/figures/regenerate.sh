@@ -25,3 +25,7 @@ fig grinding_pi grinding force-step grinding-pi-force-step
 fig grinding_pi grinding eta-varying grinding-pi-eta-varying
 fig grinding_adaptive_pzc grinding eta-varying grinding-apzc-eta-varying
 fig gac_surface_finish finishing tool-failure gac-tool-failure
+# 003's multi-model controller (issue 17): three designs on one figure, from the paper test
+# that asserts the comparison (the specs are in tests/ until the full design's proof lands).
+QLOOP_FIGURES="$PWD/docs/figures" cargo test -q -p qloop-tests --test paper_multimodel -- --exact figure >/dev/null
+echo "docs/figures/milling-multimodel-comparison.{svg,png,txt}"

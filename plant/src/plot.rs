@@ -28,6 +28,9 @@ pub enum Line {
     Setpoint,
     /// A scenario input (depth, speed): green.
     Channel,
+    /// One of several designs compared in one figure: colour `i` of a fixed palette (blue,
+    /// red, purple, brown, grey; then around again), solid.
+    Design(usize),
 }
 
 /// One curve: a label and its samples (at the figure's time base).
@@ -179,12 +182,23 @@ fn size(fig: &Figure) -> (u32, u32) {
     (WIDTH, 40 + PANEL_HEIGHT * fig.panels.len().max(1) as u32)
 }
 
+/// The colours of [`Line::Design`], distinct from the set point's black and the channels'
+/// green.
+const PALETTE: [RGBColor; 5] = [
+    RGBColor(31, 90, 200),
+    RGBColor(210, 40, 40),
+    RGBColor(130, 60, 170),
+    RGBColor(150, 90, 30),
+    RGBColor(110, 110, 110),
+];
+
 fn style(line: Line) -> ShapeStyle {
     match line {
         Line::Fixed => RGBColor(31, 90, 200).stroke_width(2),
         Line::Reference => RGBColor(235, 120, 0).stroke_width(1),
         Line::Setpoint => BLACK.stroke_width(1),
         Line::Channel => RGBColor(40, 140, 60).stroke_width(2),
+        Line::Design(i) => PALETTE[i % PALETTE.len()].stroke_width(2),
     }
 }
 

@@ -54,14 +54,16 @@ pub fn module_doc(plan: &Plan, what: &str) -> String {
 
 /// Lints the generated modules allow, each on purpose: one `let` per operation with `_N`
 /// temporaries and explicit casts (so every intermediate's type is visible), `max`/`min`
-/// rather than `clamp` (which has a panicking path), defensive parentheses, and the spec's
-/// own names (a covariance matrix is conventionally `P`).
+/// rather than `clamp` (which has a panicking path), defensive parentheses, a spec's range
+/// test written as the two comparisons it wrote (`d >= LO && d <= HI`), and the spec's own
+/// names (a covariance matrix is conventionally `P`).
 pub fn allowed_lints() -> TokenStream {
     quote::quote! {
         unused_mut, unused_assignments, unused_parens,
         clippy::just_underscores_and_digits, clippy::manual_clamp, clippy::unnecessary_cast,
         clippy::identity_op, clippy::let_and_return, clippy::needless_late_init,
-        clippy::double_parens, clippy::nonminimal_bool, non_snake_case
+        clippy::double_parens, clippy::nonminimal_bool, clippy::manual_range_contains,
+        non_snake_case
     }
 }
 
