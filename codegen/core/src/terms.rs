@@ -529,6 +529,14 @@ pub fn terms_cut(
                     Rc::new(T::Var(input_var(prog, id), q.ty.bits, q.ty.signed, lo, hi)),
                 );
             }
+            // A state confined to one value (the initial state) is that constant: its
+            // arithmetic folds here, not in a solver (cvc5 took 9 s to bit-blast the 73
+            // products of an initial 5 × 5 determinant held as variables equal to constants).
+            SigKind::State if lo == hi => {
+                let v = Rc::new(T::Const(lo));
+                pre.insert(id, v.clone());
+                env.insert(id, v);
+            }
             SigKind::State => {
                 let v = Rc::new(T::Var(pre_var(prog, id), q.ty.bits, q.ty.signed, lo, hi));
                 pre.insert(id, v.clone());
@@ -683,6 +691,11 @@ pub struct PropTerms<'a> {
     pub params: Vec<(Rc<T>, i32)>,
     /// Read states' pre values from the post-step terms (invariants after a step).
     pub pre_as_post: bool,
+    /// Products distributed over sums and `ite`s ([`mul`]); otherwise a product of two
+    /// non-constant terms stays one node ([`product`]), as the program's own products do, so
+    /// that a property's product of two stored values and the program's product of the
+    /// values it stores are one term (see [`case_split`]).
+    pub distribute: bool,
 }
 
 impl PropTerms<'_> {
@@ -758,8 +771,13 @@ impl ExactDomain for &PropTerms<'_> {
     }
 
     fn mul(&mut self, a: Fx, b: Fx) -> Result<Fx, ()> {
+        let constant = matches!(*a.t, T::Const(_)) || matches!(*b.t, T::Const(_));
         Ok(Fx {
-            t: mul(a.t, b.t),
+            t: if self.distribute || constant {
+                mul(a.t, b.t)
+            } else {
+                product(a.t, b.t)
+            },
             frac: a.frac + b.frac,
         })
     }
@@ -902,4 +920,207 @@ pub fn param_state_pairs(
         });
     }
     out
+}
+
+/// The guards of a state's update: the conditions of the `Ite`s at the top of its post-step
+/// term `t` that choose between an updated value and the value `pre` it had before the step
+/// (`if c { s = v }` gives `ite(c, v, pre)`; nested `if`s, nested `ite`s), in order of first
+/// appearance. An `Ite` inside an updated value (a clamp, a saturation) is no guard.
+pub fn update_guards(t: &Rc<T>, pre: &Rc<T>, out: &mut Vec<Rc<B>>) {
+    fn reaches(t: &Rc<T>, pre: &Rc<T>) -> bool {
+        match &**t {
+            T::Ite(_, a, b) => reaches(a, pre) || reaches(b, pre),
+            _ => Rc::ptr_eq(t, pre) || **t == **pre,
+        }
+    }
+    if let T::Ite(c, a, b) = &**t {
+        if !reaches(t, pre) {
+            return;
+        }
+        if !out.contains(c) {
+            out.push(c.clone());
+        }
+        update_guards(a, pre, out);
+        update_guards(b, pre, out);
+    }
+}
+
+/// `b` with the conditions of `case` fixed: every `Ite` on one of them replaced by the arm
+/// it selects, every occurrence of one as a Boolean by its value, and the terms rebuilt in
+/// normal form. Under the assumption `case`, the result equals `b` (an exact rewriting).
+pub fn assume(b: &Rc<B>, case: &[(Rc<B>, bool)]) -> Rc<B> {
+    let mut s = Assume {
+        case,
+        t_memo: HashMap::new(),
+        b_memo: HashMap::new(),
+    };
+    s.b(b)
+}
+
+/// The memoised rewriting of [`assume`].
+struct Assume<'a> {
+    case: &'a [(Rc<B>, bool)],
+    t_memo: HashMap<*const T, Rc<T>>,
+    b_memo: HashMap<*const B, Rc<B>>,
+}
+
+impl Assume<'_> {
+    fn value(&self, c: &Rc<B>) -> Option<bool> {
+        self.case
+            .iter()
+            .find(|(k, _)| Rc::ptr_eq(k, c) || **k == **c)
+            .map(|(_, v)| *v)
+    }
+
+    fn t(&mut self, t: &Rc<T>) -> Rc<T> {
+        if let Some(r) = self.t_memo.get(&Rc::as_ptr(t)) {
+            return r.clone();
+        }
+        let r = match &**t {
+            T::Var(..) | T::Const(_) => t.clone(),
+            T::Add(a, b) => add(self.t(a), self.t(b)),
+            T::Sub(a, b) => sub(self.t(a), self.t(b)),
+            T::Neg(a) => neg(self.t(a)),
+            T::Mul(a, b) => {
+                let (x, y) = (self.t(a), self.t(b));
+                // A product of two constants folds; otherwise it stays one product.
+                product(x, y)
+            }
+            T::Shl(a, k) => shl(self.t(a), *k),
+            T::Shr(a, k) => Rc::new(T::Shr(self.t(a), *k)),
+            T::Ite(c, a, b) => match self.value(c) {
+                Some(true) => self.t(a),
+                Some(false) => self.t(b),
+                None => {
+                    let c = self.b(c);
+                    ite(c, self.t(a), self.t(b))
+                }
+            },
+            T::Sum(terms, c) => {
+                let mut acc = Rc::new(T::Const(*c));
+                for (k, a) in terms {
+                    let x = self.t(a);
+                    acc = add(acc, mul(Rc::new(T::Const(*k)), x));
+                }
+                acc
+            }
+        };
+        self.t_memo.insert(Rc::as_ptr(t), r.clone());
+        r
+    }
+
+    fn b(&mut self, b: &Rc<B>) -> Rc<B> {
+        if let Some(r) = self.b_memo.get(&Rc::as_ptr(b)) {
+            return r.clone();
+        }
+        let zero = || Rc::new(T::Const(0));
+        let r = match self.value(b) {
+            Some(v) => Rc::new(B::Cmp(
+                if v { CmpOp::Eq } else { CmpOp::Ne },
+                zero(),
+                zero(),
+            )),
+            None => match &**b {
+                B::Cmp(op, x, y) => Rc::new(B::Cmp(*op, self.t(x), self.t(y))),
+                B::And(x, y) => Rc::new(B::And(self.b(x), self.b(y))),
+                B::Or(x, y) => Rc::new(B::Or(self.b(x), self.b(y))),
+                B::Not(x) => Rc::new(B::Not(self.b(x))),
+            },
+        };
+        self.b_memo.insert(Rc::as_ptr(b), r.clone());
+        r
+    }
+}
+
+/// `g` as the conjunction, over every assignment σ of `guards`, of `σ ⇒ g[σ]`
+/// ([`assume`]): equal to `g`, written so that in each case the guarded updates are resolved
+/// (`ite(c, new, old)` becomes `new` or `old`). An invariant stored only when a run-time test
+/// of the same condition passes then reads, case by case, as that test or as itself before
+/// the step, with no `Ite` of products to distribute. `None` for more than `max` guards.
+pub fn case_split(g: &Rc<B>, guards: &[Rc<B>], max: usize) -> Option<Rc<B>> {
+    if guards.is_empty() || guards.len() > max {
+        return None;
+    }
+    let mut out: Option<Rc<B>> = None;
+    for bits in 0..1u32 << guards.len() {
+        let case: Vec<(Rc<B>, bool)> = guards
+            .iter()
+            .enumerate()
+            .map(|(i, c)| (c.clone(), bits >> i & 1 == 1))
+            .collect();
+        // σ ⇒ g[σ], as ¬σ₁ ∨ ¬σ₂ ∨ .. ∨ g[σ].
+        let mut clause = assume(g, &case);
+        for (c, v) in &case {
+            let lit = if *v {
+                Rc::new(B::Not(c.clone()))
+            } else {
+                c.clone()
+            };
+            clause = Rc::new(B::Or(lit, clause));
+        }
+        out = Some(match out {
+            None => clause,
+            Some(acc) => Rc::new(B::And(acc, clause)),
+        });
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn var(n: &str) -> Rc<T> {
+        Rc::new(T::Var(n.into(), 32, true, -1000, 1000))
+    }
+    fn lt(a: Rc<T>, k: i128) -> Rc<B> {
+        Rc::new(B::Cmp(CmpOp::Lt, a, Rc::new(T::Const(k))))
+    }
+
+    /// `if outer { if inner { s = clamp(v) } }`: the two guards, not the clamp's test.
+    #[test]
+    fn update_guards_are_the_tests_that_hold_the_state() {
+        let (s, v) = (var("pre_s"), var("v"));
+        let clamp = ite(lt(v.clone(), -5), Rc::new(T::Const(-5)), v.clone());
+        let (outer, inner) = (lt(var("a"), 0), lt(var("b"), 0));
+        let post = ite(outer.clone(), ite(inner.clone(), clamp, s.clone()), s.clone());
+        let mut g = Vec::new();
+        update_guards(&post, &s, &mut g);
+        assert_eq!(g, vec![outer, inner]);
+        // A reset (`else { s = 0 }`) holds nothing: no guard.
+        let reset = ite(lt(var("a"), 0), v, Rc::new(T::Const(0)));
+        let mut g = Vec::new();
+        update_guards(&reset, &s, &mut g);
+        assert!(g.is_empty());
+    }
+
+    /// Fixing a guard resolves its `ite`s and rebuilds the terms in normal form: the case
+    /// where the update runs reads as the product of the values stored, one node, as the
+    /// program's own product of them is.
+    #[test]
+    fn assume_resolves_the_guarded_update() {
+        let (x, y, px, py) = (var("x"), var("y"), var("pre_x"), var("pre_y"));
+        let c = lt(var("a"), 0);
+        let post_x = ite(c.clone(), x.clone(), px.clone());
+        let post_y = ite(c.clone(), y.clone(), py.clone());
+        let goal = Rc::new(B::Cmp(
+            CmpOp::Le,
+            add(product(post_x, post_y), Rc::new(T::Const(1))),
+            Rc::new(T::Const(7)),
+        ));
+        let want = |a: Rc<T>, b: Rc<T>| {
+            Rc::new(B::Cmp(
+                CmpOp::Le,
+                add(product(a, b), Rc::new(T::Const(1))),
+                Rc::new(T::Const(7)),
+            ))
+        };
+        assert_eq!(assume(&goal, &[(c.clone(), true)]), want(x, y));
+        assert_eq!(assume(&goal, &[(c.clone(), false)]), want(px, py));
+        // Two cases, each `σ ⇒ g[σ]`; more guards than allowed: no split.
+        let split = case_split(&goal, &[c.clone()], 3).expect("one guard");
+        assert!(matches!(&*split, B::And(..)));
+        assert!(case_split(&goal, &[c.clone(), c.clone(), c.clone(), c], 3).is_none());
+        assert!(case_split(&goal, &[], 3).is_none());
+    }
 }

@@ -10,7 +10,8 @@
 use crate::ir::CmpOp;
 use qloop_core::terms::{mentions, Ranges};
 pub use qloop_core::terms::{
-    mul, product, terms, terms_cut, var_names, vars_of, PropTerms, Terms, B, T,
+    case_split, mul, product, terms, terms_cut, update_guards, var_names, vars_of, PropTerms,
+    Terms, B, T,
 };
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write;

@@ -27,6 +27,10 @@ pub struct ExactEncoding {
     pub products: exact::Products,
     /// Which values are cut points (free in their intervals) rather than their definitions.
     pub cuts: Cuts,
+    /// An invariant after the step written case by case over its states' update guards
+    /// ([`qloop_core::terms::case_split`]); encodings with it are tried only for invariants
+    /// whose states have between one and [`MAX_GUARDS`] guards.
+    pub split: bool,
     /// Name in reports (`property P [label]`).
     pub label: &'static str,
 }
@@ -84,6 +88,7 @@ pub const LINEAR: ExactEncoding = ExactEncoding {
     sort: exact::Sort::Int,
     products: exact::Products::Relaxed,
     cuts: Cuts::None,
+    split: false,
     label: "linear envelope",
 };
 /// Non-linear integer arithmetic, exact (cvc5's incremental linearisation is fast on it).
@@ -91,6 +96,7 @@ pub const INTEGER: ExactEncoding = ExactEncoding {
     sort: exact::Sort::Int,
     products: exact::Products::Exact,
     cuts: Cuts::None,
+    split: false,
     label: "exact integers",
 };
 /// Exact terms as bit-vectors at the narrowest widths.
@@ -98,6 +104,7 @@ pub const EXACT_BV: ExactEncoding = ExactEncoding {
     sort: exact::Sort::BitVec,
     products: exact::Products::Exact,
     cuts: Cuts::None,
+    split: false,
     label: "exact terms",
 };
 /// Bit-vectors, products outside the free parameters bounded by their intervals.
@@ -105,6 +112,7 @@ pub const ABSTRACT_BV: ExactEncoding = ExactEncoding {
     sort: exact::Sort::BitVec,
     products: exact::Products::Interval,
     cuts: Cuts::None,
+    split: false,
     label: "abstracted products",
 };
 /// [`LINEAR`] over the `let`s as cut points ([`Cuts::Lets`]).
@@ -119,6 +127,18 @@ pub const INTEGER_LETS: ExactEncoding = ExactEncoding {
     label: "exact integers, cut at lets",
     ..INTEGER
 };
+/// [`LINEAR_LETS`] case by case over the update guards (`split`): a law stored only when
+/// its run-time check of the invariant passes (`tests/milling_multimodel.qloop`'s
+/// `law_places_the_poles`: each coefficient's test and the invariant read alike once the
+/// guards are fixed) is proved without distributing products over `ite`s, in which form z3
+/// and cvc5 timed out at 60 s in every other encoding.
+pub const LINEAR_LETS_SPLIT: ExactEncoding = ExactEncoding {
+    split: true,
+    label: "linear envelope, cut at lets, split on updates",
+    ..LINEAR_LETS
+};
+/// The most update guards an invariant is split on (2^n cases).
+pub const MAX_GUARDS: usize = 3;
 
 /// Which question an exact query asks.
 #[derive(Clone, Copy, PartialEq, Eq, Hash)]
@@ -185,17 +205,33 @@ pub(super) fn exact_query(
         terms: &terms,
         params: params_t.clone(),
         pre_as_post: false,
+        distribute: !how.split,
     };
     let post_env = PropTerms {
         plan,
         terms: &terms,
         params: params_t.clone(),
         pre_as_post: true,
+        distribute: !how.split,
     };
-    let g = match side {
+    let mut g = match side {
         Side::Step => goal(&post_env)?,
         _ => goal(&pre_env)?,
     };
+    if how.split {
+        // The guards of the goal's states' updates (the states of `goal_conds`).
+        let mut sigs = BTreeSet::new();
+        for c in goal_conds {
+            c.post_signals(&mut sigs, side == Side::Step);
+        }
+        let mut guards = Vec::new();
+        for s in &sigs {
+            if let (Some(t), Some(pre)) = (terms.post.get(s), terms.pre.get(s)) {
+                exact::update_guards(t, pre, &mut guards);
+            }
+        }
+        g = exact::case_split(&g, &guards, MAX_GUARDS)?;
+    }
     let invariants: Vec<Rc<B>> = if side != Side::Initial {
         prog.invariants
             .iter()
@@ -334,5 +370,6 @@ pub(super) fn invariant_query(
     how: ExactEncoding,
 ) -> Option<Query> {
     let inv = &step.plan.prog.invariants[k];
-    exact_query(step, side, &[], &[], &|pt| pt.cond(&inv.cond), &[], how)
+    let conds = [inv.cond.clone()];
+    exact_query(step, side, &[], &conds, &|pt| pt.cond(&inv.cond), &[], how)
 }

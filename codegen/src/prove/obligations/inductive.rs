@@ -4,6 +4,7 @@
 
 use super::exact_query::{
     invariant_query, Cuts, Side, EXACT_BV, INTEGER, INTEGER_LETS, LINEAR, LINEAR_LETS,
+    LINEAR_LETS_SPLIT,
 };
 use super::step::{state_bound, Step, TESTS_CUT};
 use super::{Goal, Kind, Obligation};
@@ -41,14 +42,15 @@ pub(super) fn state_range(step: &Step, id: SigId) -> Vec<Obligation> {
 
 /// Invariant `k` holds after one step: a portfolio of exact-term encodings, cheapest first,
 /// then the bit-precise one (products of post-states distribute badly in exact terms).
-/// Encodings the invariant cannot be written in are left out.
+/// Encodings the invariant cannot be written in are left out, and so is the split one
+/// ([`LINEAR_LETS_SPLIT`]) for an invariant whose states have no update guard or too many.
 pub(super) fn invariant(step: &Step, k: usize) -> Vec<Obligation> {
     let plan = step.plan;
     let inv = &plan.prog.invariants[k];
     let line = inv.span.start().line;
     let name = format!("invariant {} is inductive", inv.name);
     let mut out = Vec::new();
-    for how in [LINEAR, LINEAR_LETS, INTEGER, INTEGER_LETS, EXACT_BV] {
+    for how in [LINEAR, LINEAR_LETS, LINEAR_LETS_SPLIT, INTEGER, INTEGER_LETS, EXACT_BV] {
         if let Some(query) = invariant_query(step, Side::Step, k, how) {
             out.push(Obligation {
                 name: name.clone(),

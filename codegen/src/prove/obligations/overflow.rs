@@ -9,7 +9,7 @@
 //! is tighter than interval arithmetic on their operands gives get a whole-program query.
 
 use super::exact_query::Cuts;
-use super::step::{query_of, Step, BIT_PRECISE, LINEAR_CONE, PRODUCTS_CUT};
+use super::step::{query_of, Step, BIT_PRECISE, LINEAR_CONE, PRODUCTS_CUT, TESTS_CUT};
 use super::{Goal, Kind, Obligation, LINEAR};
 use crate::lower::lir::{Op, ValId};
 use crate::lower::Plan;
@@ -53,6 +53,12 @@ pub(super) fn obligations(step: &Step) -> Vec<Obligation> {
                     (Cuts::NonLinear, LINEAR_CONE),
                     (Cuts::Products, PRODUCTS_CUT),
                 ]
+            } else if matches!(v.op, Op::Load(_)) {
+                // A state read after its update: every branch stores it inside its range (a
+                // clamp, a saturated store, the value held), whatever the tests decide (the
+                // multi-model controller's active law, one of seven laws each kept or
+                // replaced: 2-7 s each with the products cut, the tests held).
+                vec![(Cuts::Tests, TESTS_CUT), (Cuts::Products, PRODUCTS_CUT)]
             } else {
                 vec![(Cuts::Products, PRODUCTS_CUT)]
             };
