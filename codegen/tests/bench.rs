@@ -42,6 +42,44 @@ fn tools_present(missing: &[&str]) -> bool {
     false
 }
 
+/// The size columns of a run of koren_masory_1981: for every variant the controller's flash
+/// and RAM are positive and below the whole firmware's (which holds the harness and the input
+/// table too), the step function is part of the controller, and the firmware fits.
+#[track_caller]
+fn assert_sizes(out: &str, j: &serde_json::Value, variants: &[&str]) {
+    assert!(
+        out.contains("ctrl flash") && out.contains("ELF flash") && out.contains("step frame"),
+        "no size table:\n{out}"
+    );
+    let n = |v: &serde_json::Value| v.as_u64().unwrap_or_else(|| panic!("not a size: {v}"));
+    for v in variants {
+        let (cf, cr) = (n(&j["controller_flash"][v]), n(&j["controller_ram"][v]));
+        let (ef, er) = (n(&j["elf_flash"][v]), n(&j["elf_ram"][v]));
+        assert!(0 < cf && cf < ef, "{v}: controller flash {cf}, ELF {ef}");
+        assert!(0 < cr && cr <= er, "{v}: controller RAM {cr}, ELF {er}");
+        let d = &j["sizes"][v];
+        let state = n(&d["state"]);
+        assert!(state > 0 && state <= cr, "{v}: state {state}: {d}");
+        let step = n(&d["step_function"]);
+        assert!(step > 0 && step <= cf, "{v}: step function {step}: {d}");
+        assert!(
+            d["symbols"].as_array().is_some_and(|s| s
+                .iter()
+                .any(|s| s["name"].as_str().is_some_and(|n| n.ends_with("_init")))),
+            "{v}: the controller's symbols: {d}"
+        );
+        assert!(d["step_frame"].is_u64(), "{v}: -fstack-usage: {d}");
+        assert_eq!(j["fits"][v], true, "{v}: {d}");
+        assert!(
+            out.lines().any(|l| l.starts_with(v) && l.ends_with(" yes")),
+            "{v}:\n{out}"
+        );
+    }
+    // Soft float brings library routines the fixed-point step does not need.
+    let lib = |v: &str| n(&j["sizes"][v]["library"]["text"]);
+    assert!(lib("float") > lib("qloop"), "{j}");
+}
+
 /// Runs `qloop bench SPEC --target T --steps N --json DIR/bench.json` in a fresh directory under
 /// the test's tmp dir; returns the process output, and the JSON if it was written.
 fn bench(
@@ -117,6 +155,10 @@ fn bench_koren_masory_on_atmega328p() {
     // The same arithmetic costs the same: nothing in this spec is a non-power-of-two
     // constant multiply, so plain_mul is the same code.
     assert_eq!(step["qloop"], step["plain_mul"], "{j}");
+    assert_sizes(&out, &j, &keys);
+    // The ATmega328P's memory, from avr-gcc's device script.
+    assert_eq!(j["sizes"]["qloop"]["flash_limit"], 32768, "{j}");
+    assert_eq!(j["sizes"]["qloop"]["ram_limit"], 2048, "{j}");
 
     // --check-goals: exit 1 exactly when a goal is not met.
     let all_met = j["goals"]
@@ -139,6 +181,59 @@ fn bench_koren_masory_on_atmega328p() {
         "{}",
         text(&o.stderr)
     );
+}
+
+/// Firmware that does not fit the ATmega328P's 32 KiB: with 8000 steps the input table of the
+/// `float` inputs (4 bytes a step) takes 32000 bytes, that of the Q-format ones 16000. The
+/// float variants are measured, reported as not fitting and not run; the others run.
+#[test]
+fn bench_reports_a_firmware_that_does_not_fit_the_atmega328p() {
+    if !tools_present(&missing_avr_tools()) {
+        return;
+    }
+    let (o, j) = bench(
+        "koren_masory_1981.qloop",
+        "atmega328p",
+        "8000",
+        "bench-avr-big",
+    );
+    let (out, err) = (text(&o.stdout), text(&o.stderr));
+    assert_eq!(o.status.code(), Some(0), "stdout:\n{out}\nstderr:\n{err}");
+    assert!(
+        err.contains("float: does not fit the target's memory"),
+        "{err}"
+    );
+    assert!(
+        out.contains("float     was not run (does not fit)"),
+        "{out}"
+    );
+    assert!(
+        out.contains("NOT met  qloop >= 3x fewer cycles than float: not measured"),
+        "{out}"
+    );
+    let j = j.expect("json written");
+    assert_eq!(
+        j["not_run"],
+        serde_json::json!(["float", "div_float"]),
+        "{j}"
+    );
+    for v in ["float", "div_float"] {
+        assert!(j["step"][v].is_null(), "{v}: {j}");
+        assert_eq!(j["fits"][v], false, "{v}: {j}");
+        let ef = j["elf_flash"][v].as_u64().expect("ELF flash");
+        let cf = j["controller_flash"][v].as_u64().expect("controller flash");
+        assert!(ef > 32768 && cf < 32768, "{v}: ELF {ef}, controller {cf}");
+        let line = out
+            .lines()
+            .find(|l| l.starts_with(v) && l.contains("no: flash"))
+            .unwrap_or_else(|| panic!("{v}: no misfit row:\n{out}"));
+        assert!(line.contains(&format!("flash {ef} > 32768")), "{line}");
+    }
+    for v in ["qloop", "plain_mul", "div_int32"] {
+        assert!(j["step"][v].as_f64().is_some_and(|n| n > 0.0), "{v}: {j}");
+        assert_eq!(j["fits"][v], true, "{v}: {j}");
+    }
+    assert_eq!(j["qloop_equals_plain_mul"], true, "{j}");
 }
 
 #[test]
@@ -166,6 +261,11 @@ fn bench_koren_masory_on_cortex_m0_under_qemu() {
     for v in ["qloop", "plain_mul", "float", "div_float", "div_int32"] {
         assert!(j["step"][v].as_f64().is_some_and(|n| n > 0.0), "{v}: {j}");
     }
+    assert_sizes(
+        &out,
+        &j,
+        &["qloop", "plain_mul", "float", "div_float", "div_int32"],
+    );
 }
 
 /// RV32I (no M: multiplies and divides are libgcc calls) and RV32IMC under

@@ -649,11 +649,14 @@ fn demo_failures() {
     );
 }
 
-/// Fake tools for `bench` on a Cortex-M target: a compiler that succeeds (or fails with
-/// `QB_FAKE=cc-fails`) and a `qemu-system-arm` that prints `QB_STEPS` steps of the firmware's
-/// protocol, 16 instructions each and all outputs 0 (plain_mul's 1 with `QB_FAKE=differ`), or
-/// fails with `QB_FAKE=qemu-fails`. Returns the directory to put first on `PATH` and a target
-/// file naming the fake compiler.
+/// Fake tools for `bench` on a Cortex-M target: a compiler that succeeds, writing a link map
+/// with 256 KiB of flash and 16 KiB of RAM (or fails with `QB_FAKE=cc-fails`; with
+/// `QB_FAKE=overflow` its link fails with ld's region overflow unless `--noinhibit-exec`), its
+/// `size` (a firmware of 104 bytes of flash and 44 of RAM; 300004 of flash with
+/// `QB_FAKE=overflow`), `nm` (a 12-byte `bench_state`) and `objdump` (no sections), and a `qemu-system-arm` that prints
+/// `QB_STEPS` steps of the firmware's protocol, 16 instructions each and all outputs 0
+/// (plain_mul's 1 with `QB_FAKE=differ`), or fails with `QB_FAKE=qemu-fails`. Returns the
+/// directory to put first on `PATH` and a target file naming the fake compiler.
 #[cfg(unix)]
 fn fake_bench_tools(d: &Path) -> (PathBuf, PathBuf) {
     use std::os::unix::fs::PermissionsExt;
@@ -664,8 +667,22 @@ fn fake_bench_tools(d: &Path) -> (PathBuf, PathBuf) {
             "fake-arm-gcc",
             "#!/bin/sh\n\
              if [ \"$QB_FAKE\" = cc-fails ]; then echo 'fake-arm-gcc: error: bad insn' >&2; exit 1; fi\n\
+             map=; keep=\n\
+             for a; do case \"$a\" in -Wl,-Map=*) map=${a#-Wl,-Map=};; -Wl,--noinhibit-exec) keep=1;; esac; done\n\
+             if [ -n \"$map\" ]; then\n\
+             printf 'Memory Configuration\\n\\nName Origin Length Attributes\\nFLASH 0x0 0x40000 xr\\nRAM 0x20000000 0x4000 xrw\\n' > \"$map\"\n\
+             if [ \"$QB_FAKE\" = overflow ]; then echo \"ld: region \\`FLASH' overflowed by 37860 bytes\" >&2; [ -n \"$keep\" ] || exit 1; fi\n\
+             fi\n\
              exit 0\n",
         ),
+        (
+            "fake-arm-size",
+            "#!/bin/sh\n\
+             echo '   text    data     bss     dec     hex filename'\n\
+             if [ \"$QB_FAKE\" = overflow ]; then echo ' 300000 4 40 300044 4940c x'; else echo ' 100 4 40 144 90 x'; fi\n",
+        ),
+        ("fake-arm-nm", "#!/bin/sh\necho 'bench_state b 536870912 12'\n"),
+        ("fake-arm-objdump", "#!/bin/sh\nexit 0\n"),
         (
             "qemu-system-arm",
             "#!/bin/sh\n\
@@ -787,6 +804,24 @@ fn bench_failures() {
             "note: build files kept in `",
         ],
     );
+    let o = bench(&[], "overflow");
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    assert!(
+        out.contains("not run")
+            && out.contains("no: flash 300004 > 262144")
+            && out.contains("qloop was not run (does not fit)"),
+        "{out}"
+    );
+    expect(
+        "variant that does not fit, with --check-goals",
+        &bench(&["--check-goals"], "overflow"),
+        1,
+        &[
+            "does not fit the target's memory",
+            "error: --check-goals: a goal is not met",
+        ],
+    );
     expect(
         "simulator fails",
         &bench(&[], "qemu-fails"),
@@ -839,6 +874,29 @@ fn bench_failures() {
             "`qloop-no-such-arm-gcc` cannot be run",
             "apt-get install gcc-arm-none-eabi",
         ],
+    );
+    let lonely = d.join("lonely");
+    std::fs::create_dir_all(&lonely).expect("lonely dir");
+    std::fs::copy(bin.join("fake-arm-gcc"), lonely.join("lonely-arm-gcc")).expect("copy cc");
+    let nosize = d.join("nosize.toml");
+    std::fs::write(
+        &nosize,
+        std::fs::read_to_string(&target)
+            .expect("fake target")
+            .replace(
+                &s(&bin.join("fake-arm-gcc")),
+                &s(&lonely.join("lonely-arm-gcc")),
+            ),
+    )
+    .expect("write target");
+    expect(
+        "size tool missing",
+        &run(
+            &["bench", &acc, "--target", &s(&nosize)],
+            &[("PATH", &path)],
+        ),
+        1,
+        &["lonely-arm-size` cannot be run", "binutils-arm-none-eabi"],
     );
     let empty = d.join("empty");
     std::fs::create_dir_all(&empty).expect("empty dir");

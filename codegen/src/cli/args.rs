@@ -181,7 +181,9 @@ pub enum Cmd {
     /// Compiles each variant with the target's C compiler and runs it in a simulator:
     /// simavr on atmega328p (exact cycles), qemu-system-arm on Cortex-M and
     /// qemu-system-riscv32 on RV32 (instructions executed, -icount). Prints cost per step,
-    /// ratios to qloop and the goals.
+    /// ratios to qloop, flash and RAM (the controller's own and the whole firmware's, with
+    /// the toolchain's size, nm and objdump), whether the firmware fits the target's memory
+    /// (a variant that does not fit is reported, not run) and the goals.
     Bench {
         /// The spec file (*.qloop).
         spec: PathBuf,

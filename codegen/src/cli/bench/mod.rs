@@ -1,5 +1,5 @@
-//! `qloop bench`: cost per controller step on a target, for qloop's code and the baselines
-//! compiled the same way.
+//! `qloop bench`: cost per controller step on a target, and flash and RAM, for qloop's code
+//! and the baselines compiled the same way.
 //!
 //! Variants, each an `init`/`step` pair in C with the same stimulus:
 //!
@@ -14,7 +14,33 @@
 //! scripted physical sequence per input, converted to raw integers or `float` here), the
 //! step call is bracketed by timing markers, and the outputs of every step are reported
 //! back. Everything is compiled with the target's `cc` and `cflags` plus
-//! `-std=c99 -Wall -Wextra -Werror`.
+//! `-std=c99 -Wall -Wextra -Werror`: the variant's own sources on their own (`-c
+//! -fstack-usage`), then `main.c` and the platform's startup code, linked with them and
+//! writing a link map.
+//!
+//! Sizes, in bytes, with the toolchain's `size`, `nm` and `objdump` (named after `cc`:
+//! `avr-gcc` → `avr-size`), flash = text + data and RAM = data + bss as `size` counts them
+//! (Berkeley format):
+//!
+//! * whole ELF: `size` of the firmware: the controller, and the harness with it (`main.c`,
+//!   the input table, which on the AVR sits in flash, startup code, result reporting);
+//! * controller flash: what the variant's own objects (`P_step`, `P_init`, static helpers,
+//!   tables) and the library archive members they need (`__muldi3`, soft float, ...; found
+//!   from their undefined symbols to a fixed point) put into the firmware, by the link map's
+//!   input sections, each counted in the class of the output section it landed in;
+//! * controller RAM: the state object (`bench_state`, the size `nm` gives) plus the static
+//!   data of those objects and members (on the AVR a `const` array outside `PROGMEM` lands in
+//!   `.data`: RAM); the inputs and outputs (`bench_in`, `bench_out`) are not counted;
+//! * step fn: the size of `P_step` in the ELF; step frame: its own stack frame
+//!   (`-fstack-usage`), without that of the library routines it calls.
+//!
+//! The fit: the ELF's flash against the length of the link's flash region and its RAM plus
+//! the step frame against the RAM region (avr-gcc's device script for the ATmega328P: 32768
+//! and 2048; `arm::link_ld` for the QEMU machines: the micro:bit's nRF51 256 KiB and
+//! 16 KiB, MPS2-AN386 4 MiB and 4 MiB; RV32 on `virt`: one 64 MiB RAM). A firmware the linker
+//! rejects as too big is linked again with `--noinhibit-exec`, measured and reported as not
+//! fitting, and not run (its cost, outputs and goals are "not run"/"not measured"); other
+//! variants still run.
 //!
 //! * AVR (`simulator = "simavr"`): the ELF runs in `targets/avr/cycles.c`, a libsimavr host
 //!   program compiled on first use into the cache; markers are `LDI`+`OUT GPIOR0` pairs
@@ -40,7 +66,9 @@
 //! * `variants`: each variant's sources, its input table and its `main.c`;
 //! * `avr`, `arm`, `riscv`: each platform's firmware text (and on the AVR the simavr runner
 //!   and its run); `text_io`: the text protocol the two QEMU platforms share;
-//! * `compile`: a variant's ELF, built with the target's compiler;
+//! * `compile`: a variant's ELF, built with the target's compiler, and its link map;
+//! * `size`: flash and RAM of the ELF and of the controller, the fit; `linkmap`: reading
+//!   GNU ld's map; `size_table`: the size table and its JSON;
 //! * `qemu`: a run under QEMU with `-icount`;
 //! * `measured`: a run's results, read from the simulator's lines;
 //! * `report`: the table, the output checks, the goals and the JSON;
@@ -50,11 +78,14 @@ mod arm;
 mod avr;
 mod compile;
 mod host;
+mod linkmap;
 mod measured;
 mod platform;
 mod qemu;
 mod report;
 mod riscv;
+mod size;
+mod size_table;
 mod text_io;
 mod variants;
 
@@ -64,6 +95,7 @@ use host::need_tool;
 use measured::Measured;
 use platform::{platform, Platform};
 use qloop::Plan;
+use size::Footprint;
 use std::path::Path;
 use std::time::Instant;
 use variants::{div_variants, fixed_variant, float_variant, has_div_baselines, script};
@@ -176,7 +208,9 @@ pub fn bench(a: &BenchArgs) -> CliResult {
             true,
         ),
     };
-    let mut results: Vec<Measured> = Vec::new();
+    let tools = size::tools(t, &pf)?;
+    let mut results: Vec<Option<Measured>> = Vec::new();
+    let mut sizes: Vec<Footprint> = Vec::new();
     let n = variants.len();
     for (i, v) in variants.iter().enumerate() {
         let t0 = Instant::now();
@@ -187,7 +221,16 @@ pub fn bench(a: &BenchArgs) -> CliResult {
             t.toolchain.cflags.join(" ")
         );
         let dir = work.join(v.name);
-        let r = compile::build(v, t, &pf, &dir).and_then(|elf| {
+        let r = compile::build(v, t, &pf, &dir).and_then(|b| {
+            let fp = size::footprint(&tools, &b, &pf, &v.step_fn())?;
+            if let Some(o) = &b.overflow {
+                eprintln!(
+                    "bench [{}/{n}] {}: does not fit the target's memory ({o}); not run",
+                    i + 1,
+                    v.name
+                );
+                return Ok((None, fp));
+            }
             eprintln!(
                 "bench [{}/{n}] {}: simulating {} steps ({}) ...",
                 i + 1,
@@ -200,16 +243,17 @@ pub fn bench(a: &BenchArgs) -> CliResult {
                         format!("qemu-system-riscv32 -M {machine} -cpu {cpu}"),
                 }
             );
-            match (&pf, &runner) {
+            let m = match (&pf, &runner) {
                 (Platform::Qemu { .. } | Platform::Riscv { .. }, _) => {
-                    qemu::run(&elf, &pf, v, a.steps)
+                    qemu::run(&b.elf, &pf, v, a.steps)
                 }
-                (Platform::Avr, Some(r)) => avr::run(r, &elf, v, a.steps),
+                (Platform::Avr, Some(r)) => avr::run(r, &b.elf, v, a.steps),
                 (Platform::Avr, None) => Err(CliError::tool("internal: no simavr runner")),
-            }
+            }?;
+            Ok((Some(m), fp))
         });
         match r {
-            Ok(m) => {
+            Ok((m, fp)) => {
                 eprintln!(
                     "bench [{}/{n}] {}: done in {:.1} s",
                     i + 1,
@@ -217,6 +261,7 @@ pub fn bench(a: &BenchArgs) -> CliResult {
                     t0.elapsed().as_secs_f64()
                 );
                 results.push(m);
+                sizes.push(fp);
             }
             Err(e) if work.is_dir() => {
                 return Err(e.with_note(format!("build files kept in `{}`", work.display())));
@@ -225,7 +270,7 @@ pub fn bench(a: &BenchArgs) -> CliResult {
         }
     }
 
-    let (identical, all_met) = report::summarize(a, &pf, &variants, &results)?;
+    let (identical, all_met) = report::summarize(a, &pf, &variants, &results, &sizes)?;
     if temporary {
         let _ = std::fs::remove_dir_all(&work);
     } else {

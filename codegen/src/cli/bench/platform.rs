@@ -28,6 +28,17 @@ impl Platform {
         }
     }
 
+    /// The link's memory regions that hold the flash and the RAM (the AVR toolchain's
+    /// device script names them `text` and `data`, `arm::link_ld` `FLASH` and `RAM`;
+    /// on QEMU `virt` one RAM holds everything).
+    pub(super) fn regions(&self) -> (&'static str, &'static str) {
+        match self {
+            Platform::Avr => ("text", "data"),
+            Platform::Qemu { .. } => ("FLASH", "RAM"),
+            Platform::Riscv { .. } => ("RAM", "RAM"),
+        }
+    }
+
     pub(super) fn method(&self) -> String {
         match self {
             Platform::Avr => {

@@ -1,8 +1,10 @@
-//! The report: the cost table with ratios to qloop, the output checks against qloop, the
-//! goals and the JSON summary.
+//! The report: the cost table with ratios to qloop, the size table ([`super::size_table`]),
+//! the output checks against qloop, the goals and the JSON summary. A variant that does not
+//! fit the target's memory was not run: its cost and outputs are absent.
 
 use super::measured::Measured;
 use super::platform::Platform;
+use super::size::Footprint;
 use super::variants::{OutKind, Variant};
 use super::{BenchArgs, DIV_SPEC};
 use crate::cli::error::CliResult;
@@ -75,27 +77,33 @@ fn fmt_mean(x: f64) -> String {
     }
 }
 
-/// One bench run's data: the arguments, the platform, the variants and what each measured
-/// (`variants[0]`/`results[0]` are qloop's).
-struct Run<'a> {
-    a: &'a BenchArgs<'a>,
-    pf: &'a Platform,
-    variants: &'a [Variant],
-    results: &'a [Measured],
+/// One bench run's data: the arguments, the platform, the variants, what each measured (`None`:
+/// not run) and its sizes (`variants[0]`/`results[0]` are qloop's).
+pub(super) struct Run<'a> {
+    pub(super) a: &'a BenchArgs<'a>,
+    pub(super) pf: &'a Platform,
+    pub(super) variants: &'a [Variant],
+    pub(super) results: &'a [Option<Measured>],
+    pub(super) sizes: &'a [Footprint],
 }
 
 /// The variants in the order the table and the JSON list them.
-const ORDER: [&str; 5] = ["qloop", "plain_mul", "float", "div_float", "div_int32"];
+pub(super) const ORDER: [&str; 5] = ["qloop", "plain_mul", "float", "div_float", "div_int32"];
 
 impl Run<'_> {
     /// The index of a variant, if it was built.
-    fn find(&self, name: &str) -> Option<usize> {
+    pub(super) fn find(&self, name: &str) -> Option<usize> {
         self.variants.iter().position(|v| v.name == name)
     }
 
-    /// qloop's mean per step.
-    fn q_mean(&self) -> f64 {
-        self.results[0].mean()
+    /// A variant's measurements, if it was built and run.
+    fn measured(&self, name: &str) -> Option<&Measured> {
+        self.find(name).and_then(|i| self.results[i].as_ref())
+    }
+
+    /// qloop's mean per step, if it ran.
+    fn q_mean(&self) -> Option<f64> {
+        self.results[0].as_ref().map(Measured::mean)
     }
 }
 
@@ -105,13 +113,15 @@ pub(super) fn summarize(
     a: &BenchArgs,
     pf: &Platform,
     variants: &[Variant],
-    results: &[Measured],
+    results: &[Option<Measured>],
+    sizes: &[Footprint],
 ) -> CliResult<(bool, bool)> {
     let r = Run {
         a,
         pf,
         variants,
         results,
+        sizes,
     };
     let plan = a.plan;
     let t = &plan.target;
@@ -125,6 +135,7 @@ pub(super) fn summarize(
         super::variants::STIMULUS_TEXT
     );
     table(&r, &mut o);
+    super::size_table::table(&r, &mut o);
     let identical = outputs(&r, &mut o);
     let goals = goals(&r, &mut o);
     let all_met = goals.iter().all(|g| g.met);
@@ -138,11 +149,10 @@ pub(super) fn summarize(
 /// The cost table: per variant, mean, min and max per step and the ratio to qloop, with
 /// notes on what the counts mean on this platform.
 fn table(r: &Run, o: &mut String) {
-    let (a, pf, variants, results) = (r.a, r.pf, r.variants, r.results);
+    let (a, pf, variants) = (r.a, r.pf, r.variants);
     let t = &a.plan.target;
     let unit = pf.unit();
     let q_mean = r.q_mean();
-    let find = |name: &str| r.find(name);
     let _ = writeln!(
         o,
         "{:<10} {:>12} {:>10} {:>10} {:>14}",
@@ -153,20 +163,29 @@ fn table(r: &Run, o: &mut String) {
         "ratio to qloop"
     );
     for name in ORDER {
-        match find(name) {
-            Some(i) => {
-                let m = &results[i];
+        match (r.find(name), r.measured(name)) {
+            (Some(_), Some(m)) => {
+                let ratio = q_mean.map_or("n/a".to_string(), |q| {
+                    format!("{:.2}x", m.mean() / q.max(f64::MIN_POSITIVE))
+                });
                 let _ = writeln!(
                     o,
-                    "{:<10} {:>12} {:>10} {:>10} {:>13.2}x",
+                    "{:<10} {:>12} {:>10} {:>10} {:>14}",
                     name,
                     fmt_mean(m.mean()),
                     m.min(),
                     m.max(),
-                    m.mean() / q_mean.max(f64::MIN_POSITIVE)
+                    ratio
                 );
             }
-            None => {
+            (Some(_), None) => {
+                let _ = writeln!(
+                    o,
+                    "{:<10} {:>12}   (does not fit the target's memory: not run; see sizes)",
+                    name, "not run"
+                );
+            }
+            (None, _) => {
                 let _ = writeln!(
                     o,
                     "{:<10} {:>12} {:>10} {:>10} {:>14}",
@@ -209,11 +228,14 @@ fn table(r: &Run, o: &mut String) {
 /// The output checks: plain_mul must equal qloop bit for bit; float and the division
 /// baselines agree within their tolerances. Returns whether plain_mul equals qloop.
 fn outputs(r: &Run, o: &mut String) -> bool {
-    let (a, variants, results) = (r.a, r.variants, r.results);
+    let (a, variants) = (r.a, r.variants);
     let plan = a.plan;
     let find = |name: &str| r.find(name);
     let _ = writeln!(o, "\noutputs:");
-    let q = &results[0];
+    let Some(q) = r.results[0].as_ref() else {
+        let _ = writeln!(o, "  qloop was not run (does not fit): nothing to compare");
+        return true;
+    };
     let qv = &variants[0];
     let out_ids: Vec<SigId> = plan.prog.ids_of(SigKind::Output).collect();
     let spans: Vec<f64> = out_ids
@@ -227,12 +249,11 @@ fn outputs(r: &Run, o: &mut String) -> bool {
             }
         })
         .collect();
-    let p_idx = find("plain_mul").unwrap_or(1);
-    let mism = q
-        .outs
-        .iter()
-        .zip(&results[p_idx].outs)
-        .position(|(x, y)| x != y);
+    let Some(p) = r.measured("plain_mul") else {
+        let _ = writeln!(o, "  plain_mul was not run (does not fit): not compared");
+        return true;
+    };
+    let mism = q.outs.iter().zip(&p.outs).position(|(x, y)| x != y);
     let identical = mism.is_none();
     match mism {
         None => {
@@ -247,7 +268,7 @@ fn outputs(r: &Run, o: &mut String) -> bool {
                 o,
                 "  plain_mul != qloop: raw outputs DIFFER from step {i} (qloop {:?}, plain_mul {:?}); \
                  this is a bug: both compute the same exact products",
-                q.outs[i], results[p_idx].outs[i]
+                q.outs[i], p.outs[i]
             );
         }
     }
@@ -270,7 +291,11 @@ fn outputs(r: &Run, o: &mut String) -> bool {
         ("div_int32", 0.10, Some("the division algorithm of div_float, in Q12")),
     ] {
         let Some(i) = find(name) else { continue };
-        let d = deviation(&qv.outputs, q, &variants[i], &results[i], &spans, tol);
+        let Some(m) = r.measured(name) else {
+            let _ = writeln!(o, "  {name:<9} was not run (does not fit): not compared");
+            continue;
+        };
+        let d = deviation(&qv.outputs, q, &variants[i], m, &spans, tol);
         let verdict = match (d.rel <= tol, expected) {
             (true, _) => "within tolerance".to_string(),
             (false, None) => "DIFFERS".to_string(),
@@ -294,28 +319,40 @@ fn outputs(r: &Run, o: &mut String) -> bool {
 
 /// The goals (issue 5), printed; returns them for the JSON.
 fn goals(r: &Run, o: &mut String) -> Vec<Goal> {
-    let (plan, unit, results) = (r.a.plan, r.pf.unit(), r.results);
-    let t = &plan.target;
-    let q_mean = r.q_mean();
-    let find = |name: &str| r.find(name);
+    let (plan, unit) = (r.a.plan, r.pf.unit());
     let mut goals = Vec::new();
-    let ratio = |name: &str| find(name).map(|i| results[i].mean() / q_mean.max(f64::MIN_POSITIVE));
-    if let Some(r) = ratio("float") {
-        goals.push(Goal {
-            text: format!("qloop >= 3x fewer {unit} than float: {r:.2}x"),
-            met: r >= 3.0,
-        });
-    }
-    for name in ["div_float", "div_int32"] {
-        if let Some(r) = ratio(name) {
-            goals.push(Goal {
-                text: format!("qloop >= 5x fewer {unit} than {name}: {r:.2}x"),
-                met: r >= 5.0,
-            });
+    // A variant that was not run meets no goal it is part of.
+    let not_run = |name: &str, what: String| Goal {
+        text: format!("{what}: not measured, {name} does not fit"),
+        met: false,
+    };
+    let q_mean = match r.q_mean() {
+        Some(q) => q,
+        None => {
+            goals.push(not_run("qloop", "the goals".to_string()));
+            print_goals(plan, &goals, o);
+            return goals;
+        }
+    };
+    let ratio = |name: &str| {
+        r.find(name).map(|_| {
+            r.measured(name)
+                .map(|m| m.mean() / q_mean.max(f64::MIN_POSITIVE))
+        })
+    };
+    for (name, times) in [("float", 3.0), ("div_float", 5.0), ("div_int32", 5.0)] {
+        let what = format!("qloop >= {times}x fewer {unit} than {name}");
+        match ratio(name) {
+            Some(Some(r)) => goals.push(Goal {
+                text: format!("{what}: {r:.2}x"),
+                met: r >= times,
+            }),
+            Some(None) => goals.push(not_run(name, what)),
+            None => {}
         }
     }
-    if let Some(i) = find("plain_mul") {
-        let pm = results[i].mean();
+    if let Some(p) = r.measured("plain_mul") {
+        let pm = p.mean();
         goals.push(Goal {
             text: format!(
                 "qloop <= plain_mul: {} vs {} {unit}",
@@ -324,7 +361,16 @@ fn goals(r: &Run, o: &mut String) -> Vec<Goal> {
             ),
             met: q_mean <= pm,
         });
+    } else if r.find("plain_mul").is_some() {
+        goals.push(not_run("plain_mul", "qloop <= plain_mul".to_string()));
     }
+    print_goals(plan, &goals, o);
+    goals
+}
+
+/// Prints the goals under their heading.
+fn print_goals(plan: &qloop::Plan, goals: &[Goal], o: &mut String) {
+    let t = &plan.target;
     let stated = plan.prog.name == DIV_SPEC && t.name == "atmega328p";
     let _ = writeln!(
         o,
@@ -335,7 +381,7 @@ fn goals(r: &Run, o: &mut String) -> Vec<Goal> {
             " (stated for koren_masory_1981 on atmega328p; informational here)"
         }
     );
-    for g in &goals {
+    for g in goals {
         let _ = writeln!(
             o,
             "  {:<8} {}",
@@ -343,17 +389,15 @@ fn goals(r: &Run, o: &mut String) -> Vec<Goal> {
             g.text
         );
     }
-    goals
 }
 
 /// Writes the JSON report atomically.
 fn write_json(r: &Run, path: &std::path::Path, identical: bool, goals: &[Goal]) -> CliResult {
-    let (a, pf, results) = (r.a, r.pf, r.results);
+    let (a, pf) = (r.a, r.pf);
     let (plan, unit) = (a.plan, pf.unit());
     let t = &plan.target;
-    let find = |name: &str| r.find(name);
     let val = |name: &str, f: &dyn Fn(&Measured) -> serde_json::Value| {
-        find(name).map_or(serde_json::Value::Null, |i| f(&results[i]))
+        r.measured(name).map_or(serde_json::Value::Null, f)
     };
     let obj = |f: &dyn Fn(&Measured) -> serde_json::Value| {
         let mut m = serde_json::Map::new();
@@ -372,8 +416,16 @@ fn write_json(r: &Run, path: &std::path::Path, identical: bool, goals: &[Goal]) 
         "min": obj(&|m| serde_json::json!(m.min())),
         "max": obj(&|m| serde_json::json!(m.max())),
         "qloop_equals_plain_mul": identical,
+        "not_run": ORDER
+            .iter()
+            .filter(|n| r.find(n).is_some() && r.measured(n).is_none())
+            .collect::<Vec<_>>(),
         "goals": goals.iter().map(|g| serde_json::json!({"goal": g.text, "met": g.met})).collect::<Vec<_>>(),
     });
+    let mut json = json;
+    if let Some(m) = json.as_object_mut() {
+        m.extend(super::size_table::json(r));
+    }
     let text = serde_json::to_string_pretty(&json).unwrap_or_default() + "\n";
     crate::cli::files::write_atomic(path, &text)?;
     println!("\nwrote {}", path.display());

@@ -54,6 +54,13 @@ pub(super) struct Variant {
     pub(super) outputs: Vec<(String, OutKind)>,
 }
 
+impl Variant {
+    /// The name of its step function (`P_step`).
+    pub(super) fn step_fn(&self) -> String {
+        format!("{}_step", self.prefix)
+    }
+}
+
 /// What [`stimulus`] drives, for the bench report.
 pub(super) const STIMULUS_TEXT: &str = "inputs: every variant gets the same scripted sequence per \
 input, as a fraction of its declared range: 10 % of the steps below, at and just above the \
