@@ -9,7 +9,8 @@
 use std::io::Write as _;
 use std::process::{Command, Stdio};
 
-const LOOSE: &str = include_str!("../../tests/fixtures/refute/law_check_looser_than_invariant.qloop");
+const LOOSE: &str =
+    include_str!("../../tests/fixtures/refute/law_check_looser_than_invariant.qloop");
 
 /// The split query of `spec`'s invariant, as SMT-LIB text.
 fn split_query(spec: &str) -> String {
@@ -60,7 +61,10 @@ fn answers(script: &str) -> Vec<(String, String)> {
 fn a_check_matching_the_invariant_is_proved_case_by_case() {
     // The same law with the check the invariant states: TOL, not 2·TOL.
     let exact = LOOSE.replace("<= 2.0 * TOL", "<= TOL");
-    assert_ne!(exact, LOOSE, "the fixture's check changed: update this test");
+    assert_ne!(
+        exact, LOOSE,
+        "the fixture's check changed: update this test"
+    );
     for (solver, answer) in answers(&split_query(&exact)) {
         assert_eq!(answer, "unsat", "{solver} on the matching check");
     }

@@ -1083,7 +1083,11 @@ mod tests {
         let (s, v) = (var("pre_s"), var("v"));
         let clamp = ite(lt(v.clone(), -5), Rc::new(T::Const(-5)), v.clone());
         let (outer, inner) = (lt(var("a"), 0), lt(var("b"), 0));
-        let post = ite(outer.clone(), ite(inner.clone(), clamp, s.clone()), s.clone());
+        let post = ite(
+            outer.clone(),
+            ite(inner.clone(), clamp, s.clone()),
+            s.clone(),
+        );
         let mut g = Vec::new();
         update_guards(&post, &s, &mut g);
         assert_eq!(g, vec![outer, inner]);
@@ -1118,7 +1122,7 @@ mod tests {
         assert_eq!(assume(&goal, &[(c.clone(), true)]), want(x, y));
         assert_eq!(assume(&goal, &[(c.clone(), false)]), want(px, py));
         // Two cases, each `σ ⇒ g[σ]`; more guards than allowed: no split.
-        let split = case_split(&goal, &[c.clone()], 3).expect("one guard");
+        let split = case_split(&goal, std::slice::from_ref(&c), 3).expect("one guard");
         assert!(matches!(&*split, B::And(..)));
         assert!(case_split(&goal, &[c.clone(), c.clone(), c.clone(), c], 3).is_none());
         assert!(case_split(&goal, &[], 3).is_none());

@@ -8,11 +8,11 @@
 //! wider than it must be, and products may be over-approximated ([`Products`]).
 
 use crate::ir::CmpOp;
-use qloop_core::terms::{mentions, Ranges};
 pub use qloop_core::terms::{
     case_split, mul, product, terms, terms_cut, update_guards, var_names, vars_of, PropTerms,
     Terms, B, T,
 };
+use qloop_core::terms::{mentions, Ranges};
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write;
 use std::rc::Rc;

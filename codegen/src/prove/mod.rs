@@ -131,11 +131,12 @@ pub fn prove_filtered(
     progress: &mut dyn FnMut(Progress),
 ) -> Report {
     let start = Instant::now();
-    let (all, witnesses) = obligations::with_witnesses(plan);
-    let obs: Vec<Obligation> = all
+    // The whole-step fallbacks wait for phase 2 (below): asked only where needed.
+    let (all, witnesses) = obligations::with_witnesses_staged(plan, true);
+    let (deferred, obs): (Vec<Obligation>, Vec<Obligation>) = all
         .into_iter()
         .filter(|o| only.is_none_or(|t| o.label().contains(t)))
-        .collect();
+        .partition(Obligation::deferred);
     let mut queries: Vec<Query> = obs.iter().map(|o| o.query.clone()).collect();
     // The encodings of one question form a group: a solver's first proof cancels its runs on
     // the others.
@@ -231,6 +232,7 @@ pub fn prove_filtered(
             }
         }
     }
+    outcomes.extend(phase_two(plan, cfg, deferred, &outcomes));
     let mut outcomes = merge_portfolio(outcomes);
     outcomes.extend(
         table_claims(plan)
@@ -264,6 +266,78 @@ parameter value meets the `assume`s, so the property says nothing; check its ass
         witness_runs: all_witness_runs,
         witnessed_by_run,
     }
+}
+
+/// Phase 2 of [`prove_filtered`]: the deferred whole-step fallbacks
+/// ([`Obligation::deferred`]) that a solver still needs, asked of that solver alone. A
+/// solver needs the fallback of a goal when none of its runs on the goal's other encodings
+/// proved it, and no counterexample refuted it; the rest are not asked, and the report
+/// lists only the encodings that ran.
+fn phase_two(
+    plan: &Plan,
+    cfg: &Config,
+    deferred: Vec<Obligation>,
+    outcomes: &[Outcome],
+) -> Vec<Outcome> {
+    let mut settled: HashMap<(Goal, obligations::Kind), (bool, Vec<Solver>)> = HashMap::new();
+    for o in outcomes {
+        let e = settled.entry((o.ob.goal.clone(), o.ob.kind)).or_default();
+        e.0 |= o.verdict == Verdict::Refuted;
+        for r in &o.runs {
+            if r.answer == Answer::Unsat && !e.1.contains(&r.solver) {
+                e.1.push(r.solver);
+            }
+        }
+    }
+    let mut step = None;
+    let mut out = Vec::new();
+    for &solver in &cfg.solvers {
+        let needed: Vec<&Obligation> = deferred
+            .iter()
+            .filter(|o| {
+                settled
+                    .get(&(o.goal.clone(), o.kind))
+                    .is_none_or(|(refuted, proved)| !refuted && !proved.contains(&solver))
+            })
+            .collect();
+        if needed.is_empty() {
+            continue;
+        }
+        let step = step.get_or_insert_with(|| obligations::WholeStep::new(plan));
+        let obs: Vec<Obligation> = needed
+            .into_iter()
+            .filter_map(|o| {
+                let query = obligations::whole_query(step, &o.goal, o.kind)?;
+                Some(Obligation { query, ..o.clone() })
+            })
+            .collect();
+        let queries: Vec<Query> = obs.iter().map(|o| o.query.clone()).collect();
+        let groups: Vec<usize> = (0..queries.len()).collect();
+        let one = Config {
+            solvers: vec![solver],
+            ..cfg.clone()
+        };
+        let mut confirm = |i: usize, run: &Run| {
+            obs.get(i).is_some_and(|o| {
+                judge(plan, o.clone(), vec![run.clone()]).verdict == Verdict::Refuted
+            })
+        };
+        let runs = solver::run_all_batched(
+            &queries,
+            &groups,
+            &[],
+            &one,
+            &mut |_, _, _| {},
+            &mut confirm,
+        );
+        out.extend(
+            obs.iter()
+                .cloned()
+                .zip(runs)
+                .map(|(ob, runs)| judge(plan, ob, runs)),
+        );
+    }
+    out
 }
 
 /// The claimed interpolation errors of the tables (`table .., error E;`), decided by qloop:

@@ -9,7 +9,9 @@ use super::exact_query::{
 use super::step::{state_bound, Step, TESTS_CUT};
 use super::{Goal, Kind, Obligation};
 use crate::ir::SigId;
+use crate::lower::lir::ValId;
 use crate::prove::smt::PropEnv;
+use crate::prove::solver::Query;
 use std::collections::BTreeSet;
 
 /// State `id` stays inside its range after one step: bit-precise, first with the products and
@@ -19,8 +21,7 @@ use std::collections::BTreeSet;
 pub(super) fn state_range(step: &Step, id: SigId) -> Vec<Obligation> {
     let plan = step.plan;
     let s = plan.prog.sig(id);
-    let goal = state_bound(plan, id, &step.enc.post[&id]);
-    let needed = step.cone.post_of(&BTreeSet::from([id]));
+    let (goal, needed) = state_range_goal(step, id);
     // Cheapest first: with the tests cut too, a state that each branch keeps in range is
     // proved without the tests that choose the branch.
     let tests_cut = (
@@ -40,6 +41,41 @@ pub(super) fn state_range(step: &Step, id: SigId) -> Vec<Obligation> {
         .collect()
 }
 
+/// The bit-precise goal of state `id`'s range after the step, and the values it needs.
+fn state_range_goal(step: &Step, id: SigId) -> (String, BTreeSet<ValId>) {
+    let goal = state_bound(step.plan, id, &step.enc.post[&id]);
+    (goal, step.cone.post_of(&BTreeSet::from([id])))
+}
+
+/// The whole-step query of state `id`'s range after the step ([`super::step::BIT_PRECISE`]).
+pub(super) fn state_range_whole(step: &Step, id: SigId) -> Query {
+    let (goal, needed) = state_range_goal(step, id);
+    step.query(&needed, &[], &goal, &step.want, false)
+}
+
+/// The bit-precise goal of invariant `k` after the step, and the values it needs.
+fn invariant_goal(step: &Step, k: usize) -> Option<(String, BTreeSet<ValId>)> {
+    let plan = step.plan;
+    let inv = &plan.prog.invariants[k];
+    let none: Vec<(String, u32, i32)> = Vec::new();
+    let post_env = PropEnv {
+        plan,
+        post: &step.enc.post,
+        params: &none,
+        pre_as_post: true,
+    };
+    let goal = post_env.cond(&inv.cond)?;
+    let mut sigs = BTreeSet::new();
+    inv.cond.post_signals(&mut sigs, true);
+    Some((goal, step.cone.post_of(&sigs)))
+}
+
+/// The whole-step query of invariant `k` after the step ([`super::step::BIT_PRECISE`]).
+pub(super) fn invariant_whole(step: &Step, k: usize) -> Option<Query> {
+    let (goal, needed) = invariant_goal(step, k)?;
+    Some(step.query(&needed, &[], &goal, &step.want, false))
+}
+
 /// Invariant `k` holds after one step: a portfolio of exact-term encodings, cheapest first,
 /// then the bit-precise one (products of post-states distribute badly in exact terms).
 /// Encodings the invariant cannot be written in are left out, and so is the split one
@@ -50,7 +86,14 @@ pub(super) fn invariant(step: &Step, k: usize) -> Vec<Obligation> {
     let line = inv.span.start().line;
     let name = format!("invariant {} is inductive", inv.name);
     let mut out = Vec::new();
-    for how in [LINEAR, LINEAR_LETS, LINEAR_LETS_SPLIT, INTEGER, INTEGER_LETS, EXACT_BV] {
+    for how in [
+        LINEAR,
+        LINEAR_LETS,
+        LINEAR_LETS_SPLIT,
+        INTEGER,
+        INTEGER_LETS,
+        EXACT_BV,
+    ] {
         if let Some(query) = invariant_query(step, Side::Step, k, how) {
             out.push(Obligation {
                 name: name.clone(),
@@ -62,17 +105,7 @@ pub(super) fn invariant(step: &Step, k: usize) -> Vec<Obligation> {
             });
         }
     }
-    let none: Vec<(String, u32, i32)> = Vec::new();
-    let post_env = PropEnv {
-        plan,
-        post: &step.enc.post,
-        params: &none,
-        pre_as_post: true,
-    };
-    if let Some(goal) = post_env.cond(&inv.cond) {
-        let mut sigs = BTreeSet::new();
-        inv.cond.post_signals(&mut sigs, true);
-        let needed = step.cone.post_of(&sigs);
+    if let Some((goal, needed)) = invariant_goal(step, k) {
         for (query, how) in step.cut_then_whole(&needed, &goal) {
             out.push(Obligation {
                 name: name.clone(),

@@ -133,6 +133,41 @@ pub fn obligations(plan: &Plan) -> Vec<Obligation> {
     with_witnesses(plan).0
 }
 
+impl Obligation {
+    /// Whether this is a deferred whole-step fallback ([`with_witnesses_staged`]): a
+    /// placeholder with no script, asked (its query made by [`whole_query`]) only where the
+    /// goal's other encodings did not prove it. Every real query has a script.
+    pub fn deferred(&self) -> bool {
+        self.encoding == Some(step::BIT_PRECISE) && self.query.script.is_empty()
+    }
+}
+
+/// The whole-step fallback ([`step::BIT_PRECISE`]) of a deferred obligation's goal, made
+/// as [`with_witnesses`] makes it; `None` for a goal that has none.
+pub fn whole_query(step: &WholeStep, goal: &Goal, kind: Kind) -> Option<Query> {
+    let step = &step.0;
+    match (kind, goal) {
+        (Kind::Overflow, Goal::Val { val, .. }) => Some(overflow::global_val_query(step, *val)),
+        (Kind::Inductive, Goal::StateBound(id)) => Some(inductive::state_range_whole(step, *id)),
+        (Kind::Inductive, Goal::Invariant(k)) => inductive::invariant_whole(step, *k),
+        (Kind::Property, Goal::Property(k)) => {
+            property::direct_query(step, *k, false, exact_query::Cuts::None)
+        }
+        _ => None,
+    }
+}
+
+/// The shared encoding of a plan's step, for [`whole_query`] (built once: it encodes the
+/// whole step bit for bit).
+pub struct WholeStep<'a>(Step<'a>);
+
+impl<'a> WholeStep<'a> {
+    /// Encodes the step of `plan`.
+    pub fn new(plan: &'a Plan) -> Self {
+        WholeStep(Step::new(plan))
+    }
+}
+
 /// Every obligation of the plan, and per property a bit-precise query whose models are
 /// states, inputs and parameters meeting its premises (state ranges, invariants, input
 /// ranges, `assume`s): `unsat` there means the property holds vacuously.
@@ -140,8 +175,15 @@ pub fn obligations(plan: &Plan) -> Vec<Obligation> {
 /// The order is the report's: overflow per value; per state, initial then inductive; per
 /// invariant, initial then inductive (each encoding); per property, each encoding.
 pub fn with_witnesses(plan: &Plan) -> (Vec<Obligation>, Vec<Option<Query>>) {
+    with_witnesses_staged(plan, false)
+}
+
+/// [`with_witnesses`], with the whole-step fallbacks of goals that have cheaper encodings
+/// left as [`Obligation::deferred`] placeholders when `defer` is set.
+pub fn with_witnesses_staged(plan: &Plan, defer: bool) -> (Vec<Obligation>, Vec<Option<Query>>) {
     let prog = &plan.prog;
-    let step = Step::new(plan);
+    let mut step = Step::new(plan);
+    step.defer_whole = defer;
     let mut out = overflow::obligations(&step);
     for id in prog.ids_of(SigKind::State) {
         out.push(initial::state_range(plan, id));

@@ -9,7 +9,9 @@
 //! is tighter than interval arithmetic on their operands gives get a whole-program query.
 
 use super::exact_query::Cuts;
-use super::step::{query_of, Step, BIT_PRECISE, LINEAR_CONE, PRODUCTS_CUT, TESTS_CUT};
+use super::step::{
+    deferred_query, query_of, Step, BIT_PRECISE, LINEAR_CONE, PRODUCTS_CUT, TESTS_CUT,
+};
 use super::{Goal, Kind, Obligation, LINEAR};
 use crate::lower::lir::{Op, ValId};
 use crate::lower::Plan;
@@ -63,6 +65,12 @@ pub(super) fn obligations(step: &Step) -> Vec<Obligation> {
                 vec![(Cuts::Products, PRODUCTS_CUT)]
             };
             let goal = global_goal(step, id);
+            // The whole query is the fallback of the cut ones: deferred with them.
+            let whole = if step.defer_whole && !cuts.is_empty() {
+                deferred_query()
+            } else {
+                global_val_query(step, id)
+            };
             cuts.into_iter()
                 .map(|(c, how)| {
                     (
@@ -70,7 +78,7 @@ pub(super) fn obligations(step: &Step) -> Vec<Obligation> {
                         how,
                     )
                 })
-                .chain([(global_val_query(step, id), BIT_PRECISE)])
+                .chain([(whole, BIT_PRECISE)])
                 .collect()
         } else {
             // A product's range, tried first in linear integer arithmetic (its McCormick
@@ -259,7 +267,7 @@ fn global_goal(step: &Step, id: ValId) -> String {
 }
 
 /// The whole-program overflow query of a claimed value or a load.
-fn global_val_query(step: &Step, id: ValId) -> Query {
+pub(super) fn global_val_query(step: &Step, id: ValId) -> Query {
     let plan = step.plan;
     let goal = global_goal(step, id);
     match pre_state_load(step, id) {

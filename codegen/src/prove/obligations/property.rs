@@ -9,7 +9,7 @@
 use super::exact_query::{
     exact_query, Cuts, Side, ABSTRACT_BV, EXACT_BV, INTEGER, INTEGER_LETS, LINEAR, LINEAR_LETS,
 };
-use super::step::{Step, BIT_PRECISE, PRODUCTS_CUT};
+use super::step::{deferred_query, Step, BIT_PRECISE, PRODUCTS_CUT};
 use super::{param_grids, ExactEncoding, Goal, Kind, Obligation};
 use crate::prove::exact::{PropTerms, B};
 use crate::prove::smt::{in_range, PropEnv};
@@ -49,7 +49,14 @@ pub(super) fn portfolio(step: &Step, k: usize) -> Vec<Obligation> {
         (direct_query(step, k, false, Cuts::Products), PRODUCTS_CUT),
         exact(EXACT_BV),
         exact(ABSTRACT_BV),
-        (direct_query(step, k, false, Cuts::None), BIT_PRECISE),
+        (
+            if step.defer_whole {
+                Some(deferred_query())
+            } else {
+                direct_query(step, k, false, Cuts::None)
+            },
+            BIT_PRECISE,
+        ),
     ]
     .into_iter()
     .filter_map(|(query, how)| {
@@ -75,7 +82,7 @@ pub(super) fn witness(step: &Step, k: usize) -> Option<Query> {
 /// The bit-precise (SSA) encoding of property `k`, with lemmas for its cone of influence
 /// (with `cuts`, for what the goal reaches through the definitions not cut); as a
 /// `witness`, with the goal `false`.
-fn direct_query(step: &Step, k: usize, witness: bool, cuts: Cuts) -> Option<Query> {
+pub(super) fn direct_query(step: &Step, k: usize, witness: bool, cuts: Cuts) -> Option<Query> {
     let plan = step.plan;
     let p = &plan.prog.properties[k];
     let grids = &param_grids(plan, k);

@@ -32,6 +32,14 @@ pub const TESTS_CUT: &str = "bit-precise, tests cut";
 /// The label of the bit-precise encoding of a value's linear cone ([`Cuts::NonLinear`]).
 pub const LINEAR_CONE: &str = "bit-precise, linear cone";
 
+/// The placeholder of a deferred query: no script, no model.
+pub(super) fn deferred_query() -> Query {
+    Query {
+        script: String::new(),
+        want: Vec::new(),
+    }
+}
+
 /// What the whole-program queries of a plan share, computed once.
 pub(super) struct Step<'a> {
     /// The plan.
@@ -54,6 +62,11 @@ pub(super) struct Step<'a> {
     premises: [PlainSet; 2],
     /// Each value's lemma ([`Step::lemmas`]), built once.
     lemma_text: Vec<Option<String>>,
+    /// Whether the whole-step fallbacks ([`BIT_PRECISE`]) of goals that have a cheaper
+    /// encoding are left out, as [`super::Obligation::deferred`] placeholders: they are
+    /// most of a big controller's script text and are asked only where the cheaper
+    /// encodings did not prove the goal ([`super::whole_query`]).
+    pub defer_whole: bool,
 }
 
 impl<'a> Step<'a> {
@@ -74,6 +87,7 @@ impl<'a> Step<'a> {
             paths: Paths::of(plan),
             cone: Cone::of(plan),
             want: step_vars(plan),
+            defer_whole: false,
         };
         step.premises = [
             PlainSet::of(&step.decls, step.build_premises(false)),
@@ -239,11 +253,18 @@ impl Step<'_> {
                 self.cut_query(Cuts::Products, None, &[], goal, &self.want, false),
                 PRODUCTS_CUT,
             ),
-            (
-                self.query(needed, &[], goal, &self.want, false),
-                BIT_PRECISE,
-            ),
+            (self.whole(needed, goal), BIT_PRECISE),
         ]
+    }
+
+    /// The whole-step query of `goal` with lemmas for `needed` ([`BIT_PRECISE`]), or, when
+    /// the fallbacks are deferred, an empty placeholder.
+    pub fn whole(&self, needed: &BTreeSet<ValId>, goal: &str) -> Query {
+        if self.defer_whole {
+            deferred_query()
+        } else {
+            self.query(needed, &[], goal, &self.want, false)
+        }
     }
 
     /// A whole-step query like [`Step::query`] in which the values that `cuts` selects (but
