@@ -29,7 +29,7 @@ pub struct ExactEncoding {
     pub cuts: Cuts,
     /// An invariant after the step written case by case over its states' update guards
     /// ([`qloop_core::terms::case_split`]); encodings with it are tried only for invariants
-    /// whose states have between one and [`MAX_GUARDS`] guards.
+    /// whose states have between one and `MAX_GUARDS` guards.
     pub split: bool,
     /// Name in reports (`property P [label]`).
     pub label: &'static str,

@@ -142,7 +142,7 @@ impl Obligation {
     }
 }
 
-/// The whole-step fallback ([`step::BIT_PRECISE`]) of a deferred obligation's goal, made
+/// The whole-step fallback (the `bit-precise` encoding) of a deferred obligation's goal, made
 /// as [`with_witnesses`] makes it; `None` for a goal that has none.
 pub fn whole_query(step: &WholeStep, goal: &Goal, kind: Kind) -> Option<Query> {
     let step = &step.0;
