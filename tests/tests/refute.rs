@@ -19,6 +19,7 @@ qloop_macros::controller!("fixtures/refute/table_claim_too_small.qloop");
 qloop_macros::controller!("fixtures/refute/determinant_bound_too_high.qloop");
 qloop_macros::controller!("fixtures/refute/supervisor_switches_early.qloop");
 qloop_macros::controller!("fixtures/refute/pole_placement_sign_error.qloop");
+qloop_macros::controller!("fixtures/refute/law_check_looser_than_invariant.qloop");
 
 fn fixture(name: &str) -> (String, PathBuf) {
     let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -283,6 +284,7 @@ fn corpus_is_complete() {
             "claimed_range_too_narrow",
             "csd_partial_sum",
             "determinant_bound_too_high",
+            "law_check_looser_than_invariant",
             "missing_saturation",
             "pole_placement_sign_error",
             "property_sign_error",
@@ -349,5 +351,32 @@ fn pole_placement_sign_error_is_broken_by_the_compiled_initial_law() {
     assert!(
         (r1 + la1 - lb1 * s0 - M1).abs() > TOL,
         "the sign error holds"
+    );
+}
+
+/// A law stored under a check twice as loose as its invariant (issue 17's split encoding must
+/// not prove it): from the refuting pre-state (inside the invariant) the compiled step stores
+/// a law whose residual |law + model − TARGET| exceeds TOL.
+#[test]
+fn a_law_check_looser_than_its_invariant_stores_a_law_outside_it() {
+    use fixed::types::extra::{U24, U28};
+    let (_, o) = refuted("law_check_looser_than_invariant");
+    let mut c = law_check_looser_than_invariant::Controller::new();
+    let init = c.states();
+    let law = cex_or(&o, "pre_law", init.law.to_bits().into()) as i32;
+    let model = cex_or(&o, "pre_model", init.model.to_bits().into()) as i32;
+    c.set_states(law_check_looser_than_invariant::States {
+        law: FixedI32::<U24>::from_bits(law),
+        model: FixedI32::<U28>::from_bits(model),
+    });
+    c.step(law_check_looser_than_invariant::Inputs {
+        a1: FixedI32::<U28>::from_bits(cex_or(&o, "in_a1", 0) as i32),
+        n1: FixedI32::<U24>::from_bits(cex_or(&o, "in_n1", 0) as i32),
+    });
+    let s = c.states();
+    let residual = (s.law.to_num::<f64>() + s.model.to_num::<f64>() + 0.90625).abs();
+    assert!(
+        residual > 0.0009765625,
+        "the invariant holds after the step: residual {residual}"
     );
 }
