@@ -289,28 +289,45 @@ fn phase_two(
             }
         }
     }
-    let mut step = None;
+    // Which solvers need each deferred fallback; each needed query is made once.
+    let need: Vec<Vec<Solver>> = deferred
+        .iter()
+        .map(|o| {
+            let s = settled.get(&(o.goal.clone(), o.kind));
+            cfg.solvers
+                .iter()
+                .copied()
+                .filter(|v| s.is_none_or(|(refuted, proved)| !refuted && !proved.contains(v)))
+                .collect()
+        })
+        .collect();
+    if need.iter().all(Vec::is_empty) {
+        return Vec::new();
+    }
+    let step = obligations::WholeStep::new(plan);
+    let made: Vec<Option<Obligation>> = deferred
+        .into_iter()
+        .zip(&need)
+        .map(|(o, n)| {
+            let query = if n.is_empty() {
+                None
+            } else {
+                obligations::whole_query(&step, &o.goal, o.kind)
+            };
+            query.map(|query| Obligation { query, ..o })
+        })
+        .collect();
     let mut out = Vec::new();
     for &solver in &cfg.solvers {
-        let needed: Vec<&Obligation> = deferred
+        let obs: Vec<&Obligation> = made
             .iter()
-            .filter(|o| {
-                settled
-                    .get(&(o.goal.clone(), o.kind))
-                    .is_none_or(|(refuted, proved)| !refuted && !proved.contains(&solver))
-            })
+            .zip(&need)
+            .filter(|(_, n)| n.contains(&solver))
+            .filter_map(|(o, _)| o.as_ref())
             .collect();
-        if needed.is_empty() {
+        if obs.is_empty() {
             continue;
         }
-        let step = step.get_or_insert_with(|| obligations::WholeStep::new(plan));
-        let obs: Vec<Obligation> = needed
-            .into_iter()
-            .filter_map(|o| {
-                let query = obligations::whole_query(step, &o.goal, o.kind)?;
-                Some(Obligation { query, ..o.clone() })
-            })
-            .collect();
         let queries: Vec<Query> = obs.iter().map(|o| o.query.clone()).collect();
         let groups: Vec<usize> = (0..queries.len()).collect();
         let one = Config {
@@ -319,7 +336,7 @@ fn phase_two(
         };
         let mut confirm = |i: usize, run: &Run| {
             obs.get(i).is_some_and(|o| {
-                judge(plan, o.clone(), vec![run.clone()]).verdict == Verdict::Refuted
+                judge(plan, (*o).clone(), vec![run.clone()]).verdict == Verdict::Refuted
             })
         };
         let runs = solver::run_all_batched(
@@ -332,7 +349,7 @@ fn phase_two(
         );
         out.extend(
             obs.iter()
-                .cloned()
+                .map(|o| (*o).clone())
                 .zip(runs)
                 .map(|(ob, runs)| judge(plan, ob, runs)),
         );
