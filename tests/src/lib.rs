@@ -6,6 +6,7 @@ pub mod claims;
 pub mod exact;
 pub mod random_spec;
 pub mod rls;
+pub mod snapshot;
 
 use qloop::ir::SigId;
 use qloop::{Plan, Target};

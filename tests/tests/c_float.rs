@@ -225,6 +225,23 @@ fn reference(name: &str) -> Reference {
             xi
         }),
         "gac_surface_finish" => reference!(gac_surface_finish_ref { f, theta[2], pred, P[2][2] }),
+        "milling_multimodel" => reference!(milling_multimodel_ref {
+            yh[2],
+            uh[3],
+            thz[4],
+            Pz[4][4],
+            lz[3],
+            t0z,
+            mz[4],
+            thf[6][5],
+            Pf[6][5][5],
+            lf[6][4],
+            t0f[6],
+            mf[6][5],
+            hist[7][8],
+            active,
+            since
+        }),
         other => panic!("spec `{other}` has no reference module here: add it to reference()"),
     }
 }

@@ -3,6 +3,7 @@
 //! conditions too wide for exact `i128` evaluation.
 
 use qloop_tests::all_specs;
+use qloop_tests::snapshot::snapshot_text;
 
 /// The clauses of an `ensure`: its conjuncts.
 fn count_clauses(c: &qloop::ir::PCond) -> usize {
@@ -54,6 +55,20 @@ fn attributes_before(text: &str) -> Vec<String> {
     out
 }
 
+/// The functions of the harness module (at its indentation), by name: where the `fn` starts
+/// and its text up to its closing brace. One pass, so that a 27 MB module is searched once.
+fn items(text: &str) -> std::collections::BTreeMap<&str, (usize, &str)> {
+    let mut out = std::collections::BTreeMap::new();
+    for (i, _) in text.match_indices("\n    fn ") {
+        let at = i + "\n    ".len();
+        let rest = &text[at..];
+        let name = &rest["fn ".len()..rest.find('(').expect("parameters")];
+        let end = rest.find("\n    }\n").expect("end of item");
+        out.insert(name, (at, &rest[..end]));
+    }
+    out
+}
+
 /// `kani::stub(` arguments and `kani::assume(` clauses as the formatter may write them, with a
 /// trailing comma when broken over lines: without it.
 fn without_trailing_comma(s: &str) -> String {
@@ -93,10 +108,12 @@ fn harness_snapshots() {
                 harnesses.extend((1..=clauses).map(|j| format!("property_{}_clause_{j}", p.name)));
             }
         }
+        let items = items(&text);
         for h in &harnesses {
-            let at = text
-                .find(&format!("fn {h}()"))
-                .unwrap_or_else(|| panic!("{stem}: harness {h} missing"));
+            let at = items
+                .get(h.as_str())
+                .unwrap_or_else(|| panic!("{stem}: harness {h} missing"))
+                .0;
             // The attributes: `#[test]`, the Kani proof, then any stub or solver.
             let attrs = attributes_before(&text[..at]);
             let stubs = attrs
@@ -117,7 +134,7 @@ fn harness_snapshots() {
             harnesses.len(),
             "{stem}: unexpected harnesses"
         );
-        insta::assert_snapshot!(format!("{stem}_kani"), text);
+        insta::assert_snapshot!(format!("{stem}_kani"), snapshot_text(&text));
     }
 }
 
@@ -131,12 +148,12 @@ fn every_assumed_clause_is_a_lemma_over_the_asserted_box() {
     let mut abstracted = Vec::new();
     for (stem, src) in all_specs() {
         let text = qloop::gen_kani(&compile(&src));
+        let items = items(&text);
         let body = |name: &str| -> &str {
-            let at = text
-                .find(&format!("fn {name}("))
-                .unwrap_or_else(|| panic!("{stem}: {name} is not defined"));
-            let rest = &text[at..];
-            &rest[..rest.find("\n    }\n").expect("end of item")]
+            items
+                .get(name)
+                .unwrap_or_else(|| panic!("{stem}: {name} is not defined"))
+                .1
         };
         // `kani::stub(super::<module>::qloop_mul_<n>, abs_mul_<n>)`
         let mut stubbed = std::collections::BTreeSet::new();
@@ -185,8 +202,12 @@ fn every_assumed_clause_is_a_lemma_over_the_asserted_box() {
                 "{stem}: {abs} does not assert both factors' intervals"
             );
             let tag = abs.trim_start_matches("abs_");
-            let lemmas: Vec<(usize, &str)> =
-                text.match_indices(&format!("fn lemma_{tag}_")).collect();
+            let prefix = format!("lemma_{tag}_");
+            let lemmas: Vec<(usize, &str)> = items
+                .range(prefix.as_str()..)
+                .take_while(|(name, _)| name.starts_with(&prefix))
+                .map(|(_, &(at, body))| (at, body))
+                .collect();
             assert_eq!(
                 lemmas.len(),
                 assumed.len(),
@@ -195,10 +216,9 @@ fn every_assumed_clause_is_a_lemma_over_the_asserted_box() {
                 lemmas.len()
             );
             for clause in &assumed {
-                let proved = lemmas.iter().any(|(i, _)| {
-                    let rest = &text[*i..];
-                    let l = squeeze(&rest[..rest.find("\n    }\n").expect("end of lemma")]);
-                    let attrs = &text[..*i];
+                let proved = lemmas.iter().any(|&(i, lemma)| {
+                    let l = squeeze(lemma);
+                    let attrs = &text[..i];
                     attrs.trim_end().ends_with("#[kani::proof]")
                         && l.contains(&format!("kani::assert({clause},"))
                         && boxes.iter().all(|r| l.contains(&format!("{r}.contains(&")))
@@ -210,7 +230,7 @@ fn every_assumed_clause_is_a_lemma_over_the_asserted_box() {
             }
         }
         for p in ["gain_loop_contraction", "estimator_contraction"] {
-            if text.contains(&format!("fn property_{p}()"))
+            if items.contains_key(format!("property_{p}").as_str())
                 && body(&format!("property_{p}")).contains("abs_mul_")
             {
                 abstracted.push(format!("{stem}::{p}"));

@@ -1,11 +1,11 @@
-//! The assembled multi-model controller of issue 17 (tests/milling_multimodel.qloop; Rubio &
+//! The assembled multi-model controller of issue 17 (verified/specs/milling_multimodel.qloop; Rubio &
 //! De la Sen, 003_780323f84df40eb0.txt): it compiles, with one estimator stack of six
 //! five-parameter models and their invariants unrolled from `for` loops, and its step has no
 //! division. (Its closed-loop runs are in `paper_multimodel.rs`.)
 
 fn plan() -> qloop::Plan {
     qloop::compile_str(
-        include_str!("milling_multimodel.qloop"),
+        include_str!("../../verified/specs/milling_multimodel.qloop"),
         &qloop::Target::default(),
     )
     .expect("milling_multimodel.qloop compiles")

@@ -5,7 +5,7 @@
 //! 003 Fig. 1 (b = 3 → 5 → 3 → 2 mm at F_r = 1.2 kN, T = 0.0839 s), each beside the f64
 //! reference compiled from the same spec:
 //!
-//! * `tests/milling_multimodel.qloop`: the full design (seven RLS estimators, seven
+//! * `verified/specs/milling_multimodel.qloop` (`qloop_verified::milling_multimodel`): the full design (seven RLS estimators, seven
 //!   pole-placement laws, the supervisor with N_R = 2), its active β driving the hold;
 //! * `tests/milling_zoh.qloop`: the ZOH-only design (β = 0, one estimator, one law): model 0
 //!   of the full design on its own, under a zero-order hold;
@@ -31,8 +31,7 @@ use qloop_plant::{
 use std::fmt::Write;
 use std::sync::OnceLock;
 
-qloop_macros::controller!("tests/milling_multimodel.qloop");
-qloop_macros::controller!("tests/milling_multimodel.qloop", reference);
+use qloop_verified::{milling_multimodel, milling_multimodel_ref};
 qloop_macros::controller!("tests/milling_zoh.qloop");
 qloop_macros::controller!("tests/milling_zoh.qloop", reference);
 

@@ -11,6 +11,12 @@
 //! * [`gac_surface_finish`]: geometric adaptive control of the surface finish, one step per
 //!   part: recursive least squares of 002_39e44efc2e4f2eb6.txt eq. 29 and a Newton step on
 //!   the feed, both division-free (`newton_recip`).
+//! * [`milling_multimodel`]: the multi-model adaptive controller of Rubio & De la Sen
+//!   (003_780323f84df40eb0.txt eqs. 4-11 and its switching rule): seven recursive
+//!   least-squares estimators on β-FROH discretisations, a model-following pole-placement law
+//!   per estimate (the Diophantine equation solved by Cramer's rule with a division-free
+//!   reciprocal), and a supervisor that switches to the best predictor after a residence
+//!   time of N_r = 2 periods.
 //!
 //! The `*_ref` modules are the f64 reference controllers compiled from the same specs.
 //!
@@ -36,3 +42,6 @@ qloop_macros::controller!("specs/grinding_adaptive_pzc.qloop", kani);
 qloop_macros::controller!("specs/gac_surface_finish.qloop");
 qloop_macros::controller!("specs/gac_surface_finish.qloop", reference);
 qloop_macros::controller!("specs/gac_surface_finish.qloop", kani);
+qloop_macros::controller!("specs/milling_multimodel.qloop");
+qloop_macros::controller!("specs/milling_multimodel.qloop", reference);
+qloop_macros::controller!("specs/milling_multimodel.qloop", kani);

@@ -128,7 +128,7 @@ pub const INTEGER_LETS: ExactEncoding = ExactEncoding {
     ..INTEGER
 };
 /// [`LINEAR_LETS`] case by case over the update guards (`split`): a law stored only when
-/// its run-time check of the invariant passes (`tests/milling_multimodel.qloop`'s
+/// its run-time check of the invariant passes (`verified/specs/milling_multimodel.qloop`'s
 /// `law_places_the_poles`: each coefficient's test and the invariant read alike once the
 /// guards are fixed) is proved without distributing products over `ite`s, in which form z3
 /// and cvc5 timed out at 60 s in every other encoding.

@@ -166,6 +166,10 @@ pub(super) struct Abstraction<'p> {
     subst: BTreeMap<usize, (SigId, u32, i128, i128)>,
     /// The current property's parameter names.
     param_names: Vec<String>,
+    /// The invariants' conditions over `pre`, products abstracted, once the first property
+    /// harness needed them: emitted once as `invariants_abstracted` and called by every
+    /// abstracted harness (they read no parameter, so every harness's are the same).
+    invariants: Option<Vec<TokenStream>>,
 }
 
 impl<'p> Abstraction<'p> {
@@ -203,7 +207,19 @@ impl<'p> Abstraction<'p> {
             products,
             subst: BTreeMap::new(),
             param_names: Vec::new(),
+            invariants: None,
         }
+    }
+
+    /// Whether the invariants' abstracted conditions have been recorded.
+    pub(super) fn has_invariants(&self) -> bool {
+        self.invariants.is_some()
+    }
+
+    /// Records the invariants' abstracted conditions (`pre.<state>` terms), for
+    /// `invariants_abstracted`.
+    pub(super) fn set_invariants(&mut self, conds: Vec<TokenStream>) {
+        self.invariants = Some(conds);
     }
 
     /// Sets the parameter substitutions and names of the property about to be evaluated.
@@ -386,6 +402,21 @@ impl<'p> Abstraction<'p> {
     pub(super) fn items(&self) -> TokenStream {
         let ctl = &self.ctl;
         let mut out = TokenStream::new();
+        if let Some(conds) = &self.invariants {
+            out.extend(quote! {
+                /// Whether every invariant holds of `pre`, products abstracted: the premise
+                /// of every abstracted property harness (Kani only).
+                #[cfg(kani)]
+                fn invariants_abstracted(pre: &StateRaw) -> bool {
+                    #(
+                        if !(#conds) {
+                            return false;
+                        }
+                    )*
+                    true
+                }
+            });
+        }
         for p in &self.products {
             let t = ty_tokens(p.ty);
             let (label, tag) = (p.label(), p.tag());

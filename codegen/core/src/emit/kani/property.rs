@@ -265,17 +265,17 @@ fn abstracted_path(
         .collect();
     abs.borrow_mut().set_params(subst, &names);
     let env = Env::step(plan, grids, &names, Some(abs));
-    let inv_env = Env::states(plan, "pre", Some(abs));
-    let mut invariants = Vec::new();
-    for inv in &plan.prog.invariants {
-        let c = inv_env
-            .cond(&inv.cond)
-            .map_err(|why| format!("invariant `{}`: {why}", inv.name))?;
-        invariants.push(quote! {
-            if !(#c) {
-                return;
-            }
-        });
+    if !abs.borrow().has_invariants() {
+        let inv_env = Env::states(plan, "pre", Some(abs));
+        let mut conds = Vec::new();
+        for inv in &plan.prog.invariants {
+            conds.push(
+                inv_env
+                    .cond(&inv.cond)
+                    .map_err(|why| format!("invariant `{}`: {why}", inv.name))?,
+            );
+        }
+        abs.borrow_mut().set_invariants(conds);
     }
     let assumes = early_returns(&env, &names, &p.assumes)?;
     let mut asserts = Vec::new();
@@ -294,7 +294,9 @@ fn abstracted_path(
         if !(inputs_in_range(&inputs) && in_bounds(&pre)) {
             return;
         }
-        #(#invariants)*
+        if !invariants_abstracted(&pre) {
+            return;
+        }
         let (post, outputs) = step(#step_args);
         #(#assumes)*
         kani::cover!(true, #cover);
