@@ -67,6 +67,7 @@ fn rust_trajectory(stem: &str, inputs: &[Vec<i64>]) -> Vec<Vec<i64>> {
         // Vector and matrix states: `step_bits`/`state_bits` flatten them row-major, the
         // order of the C driver's fields (`theta[0]`, `theta[1]`, `P[0][0]`, ..).
         "gac_surface_finish" => run!(gac_surface_finish),
+        "milling_multimodel" => run!(milling_multimodel),
         other => panic!("seed spec {other} is not in qloop-verified"),
     }
 }

@@ -199,6 +199,11 @@ fn gac_surface_finish_encoding_matches_interpreter() {
     differential("gac_surface_finish");
 }
 
+#[test]
+fn milling_multimodel_encoding_matches_interpreter() {
+    differential("milling_multimodel");
+}
+
 /// Every seed spec has its `*_encoding_matches_interpreter` test above.
 #[test]
 fn every_seed_spec_has_an_encoding_test() {
