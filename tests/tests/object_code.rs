@@ -344,12 +344,23 @@ fn rust_step_has_no_division_and_no_unplanned_library_multiply() {
             let divs: Vec<&String> = asm.iter().filter(|l| is_div(l)).collect();
             assert!(divs.is_empty(), "{stem}/{triple}: division: {divs:?}");
             if strict {
+                // At most the plan's multiplies: a shift-add network LLVM turned back into a
+                // multiply would add one. Not exactly as many: LLVM may remove or merge
+                // products. The multi-model controller keeps 1,615 of its 3,055 on
+                // thumbv6m; every other seed keeps all of its own. (The C check above is
+                // exact: it makes each planned multiply an opaque call and then finds none.)
                 let muls = asm.iter().filter(|l| is_mul(l)).count();
                 let planned = op_counts(&qloop_tests::plan(&stem)).mul;
-                assert_eq!(
-                    muls, planned,
+                assert!(
+                    muls <= planned,
                     "{stem}/{triple}: {muls} multiplies in the object, {planned} in the plan"
                 );
+                if stem != "milling_multimodel" {
+                    assert_eq!(
+                        muls, planned,
+                        "{stem}/{triple}: {muls} multiplies in the object, {planned} in the plan"
+                    );
+                }
             }
         }
     }
