@@ -59,14 +59,14 @@ pub fn outline(text: &str) -> String {
         if !opens {
             continue;
         }
-        let key: String = line
-            .trim()
-            .chars()
-            .map(|c| if c.is_ascii_digit() { 'N' } else { c })
-            .collect();
-        let mut key = key.replace("NN", "N");
-        while key.contains("NN") {
-            key = key.replace("NN", "N");
+        // Digits written `N`, a run of them as one.
+        let mut key = String::new();
+        for c in line.trim().chars() {
+            if !c.is_ascii_digit() {
+                key.push(c);
+            } else if !key.ends_with('N') {
+                key.push('N');
+            }
         }
         let n = counts.entry(key.clone()).or_insert(0);
         if *n == 0 {

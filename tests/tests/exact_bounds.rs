@@ -102,11 +102,10 @@ fn printed_bounds_hold_on_the_seed_specs_and_the_corpus() {
         // 2,000 random cases and every corner case; for a step of more than 5,000 values
         // (the multi-model controller: 13,000 values, whose exact evaluation takes about 2 s
         // a case in a debug build, and corner cases for each of its 1,300 states) 20 random
-        // cases and every k-th corner case, about 40 cases in all.
-        let count = if plan.vals.len() > 5_000 { 20 } else { 2000 };
-        let all = cases(&plan, &mut seed, count);
-        let stride = all.len().div_ceil(count).max(1);
-        let stride = if stride <= 2 { 1 } else { stride };
+        // cases and the corner cases thinned to 20 cases in all.
+        let large = plan.vals.len() > 5_000;
+        let all = cases(&plan, &mut seed, if large { 20 } else { 2000 });
+        let stride = if large { all.len().div_ceil(20) } else { 1 };
         for case in all.into_iter().step_by(stride) {
             let c = check(&plan, &case).unwrap_or_else(|e| panic!("{name}: {e}\n{case:?}"));
             n += c.bounds;

@@ -366,6 +366,23 @@ pub struct PropEnv<'a> {
     pub pre_as_post: bool,
 }
 
+impl<'a> PropEnv<'a> {
+    /// An environment for invariants, which have no free parameters: states read before
+    /// the step (`pre_as_post` false) or after it (true).
+    pub fn invariants(
+        plan: &'a Plan,
+        post: &'a BTreeMap<SigId, String>,
+        pre_as_post: bool,
+    ) -> PropEnv<'a> {
+        PropEnv {
+            plan,
+            post,
+            params: &[],
+            pre_as_post,
+        }
+    }
+}
+
 impl PropEnv<'_> {
     /// Exact term of a property expression.
     pub fn expr(&self, e: &PExpr) -> Option<Exact> {

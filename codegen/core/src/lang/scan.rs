@@ -14,8 +14,9 @@
 //!   the depth of every expression tree qloop builds.
 //!
 //! Both limits are far above what a controller needs (the seed specs reach nesting 9 and
-//! length 65, the multi-model controller's pole-placement check) and low enough that the deepest admitted spec compiles in a 2 MiB thread in a
-//! debug build (`deepest_admitted_specs_compile_in_a_small_stack` below).
+//! length 65, the multi-model controller's pole-placement check) and low enough that the
+//! deepest admitted spec compiles in a 2 MiB thread in a debug build
+//! (`deepest_admitted_specs_compile_in_a_small_stack` below).
 //!
 //! Before lexing, [`brackets`] reads the text itself, so that an unbalanced or truncated spec
 //! gets an error naming the bracket and where it was opened, instead of the lexer's "cannot

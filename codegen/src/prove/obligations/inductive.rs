@@ -57,13 +57,7 @@ pub(super) fn state_range_whole(step: &Step, id: SigId) -> Query {
 fn invariant_goal(step: &Step, k: usize) -> Option<(String, BTreeSet<ValId>)> {
     let plan = step.plan;
     let inv = &plan.prog.invariants[k];
-    let none: Vec<(String, u32, i32)> = Vec::new();
-    let post_env = PropEnv {
-        plan,
-        post: &step.enc.post,
-        params: &none,
-        pre_as_post: true,
-    };
+    let post_env = PropEnv::invariants(plan, &step.enc.post, true);
     let goal = post_env.cond(&inv.cond)?;
     let mut sigs = BTreeSet::new();
     inv.cond.post_signals(&mut sigs, true);

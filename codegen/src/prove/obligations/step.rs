@@ -107,13 +107,7 @@ impl<'a> Step<'a> {
             .ids_of(SigKind::State)
             .map(|id| state_bound(plan, id, &smt::pre_var(prog, id)))
             .collect();
-        let none: Vec<(String, u32, i32)> = Vec::new();
-        let env = PropEnv {
-            plan,
-            post: &self.enc.post,
-            params: &none,
-            pre_as_post: false,
-        };
+        let env = PropEnv::invariants(plan, &self.enc.post, false);
         v.extend(
             prog.invariants
                 .iter()
