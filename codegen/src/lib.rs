@@ -12,6 +12,8 @@
 #![deny(missing_docs)]
 
 pub mod emit;
+#[cfg(feature = "cli")]
+pub mod interpreted;
 pub mod prove;
 pub mod report;
 pub mod targets;
@@ -25,6 +27,11 @@ pub use qloop_core::{
 /// The built-in Koren–Masory (1981) spec, used by `qloop demo` (`codegen/specs/demo.qloop`, a
 /// link to `verified/specs/koren_masory_1981.qloop`, so that the packaged crate carries it).
 pub const DEMO_SPEC: &str = include_str!("../specs/demo.qloop");
+
+/// The same controller tuned by `qloop tune` on the turning plant, shown by `qloop demo`
+/// beside the paper's tuning (`codegen/specs/demo_tuned.qloop`, a link to
+/// `verified/specs/koren_masory_tuned.qloop`).
+pub const DEMO_TUNED_SPEC: &str = include_str!("../specs/demo_tuned.qloop");
 
 /// The C99 controller of a compiled plan: `(NAME.h, NAME.c)`.
 pub fn gen_c(plan: &Plan) -> (String, String) {

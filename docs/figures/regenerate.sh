@@ -17,6 +17,7 @@ fig() { # spec plant scenario name
 }
 fig acc_fixed_gain turning depth-steps fig5a-conventional-depth-steps
 fig koren_masory_1981 turning depth-steps fig5b-adaptive-depth-steps
+fig koren_masory_tuned turning depth-steps tuned-depth-steps
 fig koren_masory_1981 turning depth-ramp fig6-adaptive-depth-ramp
 fig koren_masory_1981 turning speed-drop fig7-adaptive-speed-drop
 fig acc_fixed_gain turning speed-drop fig7-conventional-speed-drop
@@ -25,6 +26,10 @@ fig grinding_pi grinding force-step grinding-pi-force-step
 fig grinding_pi grinding eta-varying grinding-pi-eta-varying
 fig grinding_adaptive_pzc grinding eta-varying grinding-apzc-eta-varying
 fig gac_surface_finish finishing tool-failure gac-tool-failure
+# The paper's tuning against `qloop tune`'s (issue 18): the demo's comparison figure.
+./target/release/qloop demo --out "$tmp/demo" >/dev/null
+for ext in svg png txt; do cp "$tmp/demo/paper-vs-tuned.$ext" "docs/figures/paper-vs-tuned-depth-steps.$ext"; done
+echo "docs/figures/paper-vs-tuned-depth-steps.{svg,png,txt}"
 # 003's multi-model controller (issue 17): three designs on one figure, from the paper test
 # that asserts the comparison (the specs are in tests/ until the full design's proof lands).
 QLOOP_FIGURES="$PWD/docs/figures" cargo test -q -p qloop-tests --test paper_multimodel -- --exact figure >/dev/null

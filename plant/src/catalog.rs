@@ -36,10 +36,21 @@ pub fn scenarios_of(plant: &str) -> Vec<Scenario> {
     }
 }
 
-/// The scenario `what` of `plant`: a built-in scenario name, or the path of a TOML scenario
-/// file (see [`crate::scenario`]).
+/// The fault scenarios of the plant named `plant` ([`crate::fault`]): named like the others,
+/// but not among [`scenarios_of`], so that a sweep over "every scenario" measures the healthy
+/// loop.
+pub fn fault_scenarios_of(plant: &str) -> Vec<Scenario> {
+    match plant {
+        "turning" => turning::fault_scenarios(),
+        _ => Vec::new(),
+    }
+}
+
+/// The scenario `what` of `plant`: a built-in scenario name (healthy or faulty), or the path
+/// of a TOML scenario file (see [`crate::scenario`]).
 pub fn scenario(plant: &str, what: &str) -> Result<Scenario, String> {
-    let builtin = scenarios_of(plant);
+    let mut builtin = scenarios_of(plant);
+    builtin.extend(fault_scenarios_of(plant));
     if let Some(s) = builtin.iter().find(|s| s.name == what) {
         return Ok(s.clone());
     }
@@ -67,7 +78,7 @@ mod tests {
             assert_eq!(plant.name(), *p);
             let scs = scenarios_of(p);
             assert!(!scs.is_empty(), "{p}");
-            for s in scs {
+            for s in scs.into_iter().chain(fault_scenarios_of(p)) {
                 s.validate().unwrap();
                 assert_eq!(scenario(p, &s.name).unwrap(), s);
             }

@@ -19,6 +19,7 @@ pub mod catalog;
 pub mod contract;
 pub mod controller;
 pub mod discrete;
+pub mod fault;
 pub mod finishing;
 pub mod froh;
 pub mod grinding;

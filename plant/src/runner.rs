@@ -78,7 +78,7 @@ pub fn check_channels(plant: &dyn Plant, sc: &Scenario, c: &dyn Controller) -> R
 struct Loop {
     plant: Box<dyn Plant>,
     sensor: Sensor,
-    ctl: Box<dyn Controller + Send>,
+    ctl: Box<dyn Controller>,
     x: Vec<f64>,
     y: Vec<f64>,
     s: Vec<f64>,
@@ -100,18 +100,13 @@ struct Loop {
 pub const HOLD_BETA: &str = "hold_beta";
 
 impl Loop {
-    fn new(
-        plant: &dyn Plant,
-        ctl: Box<dyn Controller + Send>,
-        sc: &Scenario,
-        binding: Binding,
-    ) -> Loop {
+    fn new(plant: &dyn Plant, ctl: Box<dyn Controller>, sc: &Scenario, binding: Binding) -> Loop {
         let sig = ctl.signals();
         let mut sensor_p = plant.sensor();
         sensor_p.noise_sigma = sc.noise_sigma;
         Loop {
             plant: plant.fresh(),
-            sensor: Sensor::new(sensor_p, sc.seed),
+            sensor: Sensor::new(sensor_p, sc.seed).with_faults(&sc.faults, sc.seed),
             x: vec![0.0; sig.inputs.len()],
             y: vec![0.0; sig.outputs.len()],
             s: vec![0.0; sig.states.len()],
@@ -146,7 +141,7 @@ impl Loop {
 
     /// Sample, compute, issue the command.
     fn sample(&mut self, sc: &Scenario, t: f64) {
-        self.x[0] = self.sensor.read(self.plant.output(sc, t)) * self.binding.measured_scale;
+        self.x[0] = self.sensor.read_at(t, self.plant.output(sc, t)) * self.binding.measured_scale;
         for (x, (name, default)) in self.x[1..].iter_mut().zip(&self.extra) {
             *x = sc.value(name, t, *default);
         }
@@ -250,8 +245,8 @@ fn drive(
 /// suffix `_ref`.
 pub fn run(
     plant: &dyn Plant,
-    fixed: Box<dyn Controller + Send>,
-    reference: Box<dyn Controller + Send>,
+    fixed: Box<dyn Controller>,
+    reference: Box<dyn Controller>,
     sc: &Scenario,
     cfg: RunConfig,
 ) -> Result<Trace, String> {
@@ -277,7 +272,7 @@ pub fn run(
 /// then the controller's inputs, states and outputs by spec name.
 pub fn run_single(
     plant: &dyn Plant,
-    ctl: Box<dyn Controller + Send>,
+    ctl: Box<dyn Controller>,
     sc: &Scenario,
     cfg: RunConfig,
 ) -> Result<Trace, String> {
@@ -406,6 +401,7 @@ mod tests {
             noise_sigma: 0.0,
             seed: 1,
             channels: Default::default(),
+            faults: Vec::new(),
         };
         for beta in [0.0, 0.5, -0.3, 1.0] {
             let log = Log(Default::default());

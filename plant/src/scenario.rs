@@ -13,6 +13,7 @@
 //! n_rpm = [[0, 500]]
 //! ```
 
+use crate::fault::Fault;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 
@@ -85,6 +86,10 @@ pub struct Scenario {
     pub seed: u64,
     /// The channels, by name (e.g. `a_mm`, `n_rpm`).
     pub channels: BTreeMap<String, Schedule>,
+    /// Sensor faults ([`crate::fault`]): `[[faults]]` tables in TOML, e.g.
+    /// `kind = "stuck"`, `from_s = 10.0`, `to_s = 15.0`.
+    #[serde(default)]
+    pub faults: Vec<Fault>,
 }
 
 fn one() -> u64 {
@@ -108,7 +113,14 @@ impl Scenario {
                 .iter()
                 .map(|(n, s)| (n.to_string(), s.clone()))
                 .collect(),
+            faults: Vec::new(),
         }
+    }
+
+    /// The scenario with `faults` injected.
+    pub fn with_faults(mut self, faults: Vec<Fault>) -> Scenario {
+        self.faults = faults;
+        self
     }
 
     /// A channel's value at `t`, or `default` if the scenario does not set it.
@@ -150,6 +162,10 @@ impl Scenario {
                     "channel `{name}`: every time and value must be finite"
                 ));
             }
+        }
+        for (i, f) in self.faults.iter().enumerate() {
+            f.validate()
+                .map_err(|e| format!("scenario `{}`, fault {}: {e}", self.name, i + 1))?;
         }
         Ok(())
     }
@@ -200,5 +216,29 @@ mod tests {
             Scenario::from_toml("name = \"x\"\nduration_s = 5.0\n[channels]\na_mm = [[3, 2, 1]]\n")
                 .unwrap_err();
         assert!(e.contains("line 4") && e.contains("[time_s, value]"), "{e}");
+    }
+
+    #[test]
+    fn faults_read_from_toml_and_are_checked() {
+        let s = Scenario::from_toml(
+            "name = \"f\"\nduration_s = 5.0\n[channels]\na_mm = [[0, 2]]\n\
+             [[faults]]\nkind = \"stuck\"\nfrom_s = 1.0\nto_s = 2.0\n\
+             [[faults]]\nkind = \"spikes\"\nheight = 3.0\nperiod_s = 0.5\nwidth_s = 0.1\nfrom_s = 2.0\nto_s = 3.0\n",
+        )
+        .unwrap();
+        assert_eq!(s.faults.len(), 2);
+        assert_eq!(s.faults[0].kind, crate::fault::FaultKind::Stuck);
+        let e = Scenario::from_toml(
+            "name = \"f\"\nduration_s = 5.0\n[channels]\na_mm = [[0, 2]]\n\
+             [[faults]]\nkind = \"noise-burst\"\nsigma = -1.0\nfrom_s = 1.0\nto_s = 2.0\n",
+        )
+        .unwrap_err();
+        assert!(e.contains("fault 1") && e.contains("sigma"), "{e}");
+        let e = Scenario::from_toml(
+            "name = \"f\"\nduration_s = 5.0\n[channels]\na_mm = [[0, 2]]\n\
+             [[faults]]\nkind = \"melt\"\nfrom_s = 1.0\nto_s = 2.0\n",
+        )
+        .unwrap_err();
+        assert!(e.contains("melt"), "{e}");
     }
 }

@@ -2,6 +2,7 @@
 //! quantisation, in that order (000: "the gain H represents the force sensor electronics and
 //! the ADC gain").
 
+use crate::fault::{Fault, Faults};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -28,6 +29,9 @@ pub struct Sensor {
     /// ADC step and highest code.
     lsb: f64,
     top: f64,
+    /// Injected faults, and the last reading (what a `stuck` fault holds).
+    faults: Faults,
+    last: f64,
 }
 
 impl Sensor {
@@ -41,8 +45,32 @@ impl Sensor {
             lsb: (p.range.1 - p.range.0) / levels,
             top: levels - 1.0,
             rng: ChaCha8Rng::seed_from_u64(seed),
+            faults: Faults::new(&[], seed),
+            last: 0.0,
             p,
         }
+    }
+
+    /// The sensor with the scenario's faults injected ([`crate::fault`]).
+    pub fn with_faults(mut self, faults: &[Fault], seed: u64) -> Sensor {
+        self.faults = Faults::new(faults, seed);
+        self
+    }
+
+    /// One reading of the true value `x` at time `t`, faults applied. The noise is drawn on
+    /// every reading, faulty or not, so that a fault does not shift the noise stream.
+    pub fn read_at(&mut self, t: f64, x: f64) -> f64 {
+        let noise = self.noise.map_or(0.0, |n| n.sample(&mut self.rng));
+        let (lo, hi) = self.p.range;
+        let r = match self
+            .faults
+            .apply(t, self.p.gain * x + noise, self.last, (lo, hi))
+        {
+            Err(held) => held,
+            Ok(v) => lo + ((v.clamp(lo, hi) - lo) / self.lsb).round().min(self.top) * self.lsb,
+        };
+        self.last = r;
+        r
     }
 
     /// One reading of the true value `x`.

@@ -80,8 +80,19 @@ pub struct Outcome {
     pub ss_error: f64,
     /// Largest overshoot fraction over cutting segments.
     pub overshoot: f64,
-    /// Longest settling time over cutting segments (∞ if some never settles).
+    /// Largest loop overshoot ([`crate::metrics::Segment::loop_overshoot`]) over cutting
+    /// segments.
+    pub loop_overshoot: f64,
+    /// Longest settling time over cutting segments (∞ if some does not settle).
     pub settling_s: f64,
+    /// Longest rise time over cutting segments (∞ if some never comes near the reference).
+    pub rise_s: f64,
+    /// Lowest damping ratio over cutting segments that swing through the reference (1 if
+    /// none does: no overshoot beyond the band to measure).
+    pub damping: f64,
+    /// Largest late ringing over cutting segments ([`crate::metrics::Segment::ringing`]),
+    /// as a fraction of the reference; 0 if none rings.
+    pub ringing: f64,
     /// max |fixed − f64| per compared signal.
     pub max_diff: Vec<(String, f64)>,
 }
@@ -99,9 +110,15 @@ impl Outcome {
             osc_hz: m.fixed.first_oscillation().map(|s| s.osc_hz),
             ss_error: cut().map(|s| s.ss_error.abs()).fold(0.0, f64::max),
             overshoot: cut().map(|s| s.overshoot).fold(0.0, f64::max),
+            loop_overshoot: cut().map(|s| s.loop_overshoot).fold(0.0, f64::max),
             settling_s: cut()
                 .map(|s| s.settling_s.unwrap_or(f64::INFINITY))
                 .fold(0.0, f64::max),
+            rise_s: cut()
+                .map(|s| s.rise_s.unwrap_or(f64::INFINITY))
+                .fold(0.0, f64::max),
+            damping: cut().filter_map(|s| s.damping).fold(1.0, f64::min),
+            ringing: cut().filter_map(|s| s.ringing).fold(0.0, f64::max),
             max_diff: m.max_diff.clone(),
         }
     }
@@ -135,8 +152,19 @@ pub struct Envelope {
     pub ss_error: Option<Worst>,
     /// Worst overshoot (stable draws).
     pub overshoot: Option<Worst>,
+    /// Worst loop overshoot (stable draws).
+    pub loop_overshoot: Option<Worst>,
     /// Worst settling time (stable draws).
     pub settling_s: Option<Worst>,
+    /// Worst rise time (stable draws).
+    pub rise_s: Option<Worst>,
+    /// Worst (lowest) damping ratio (stable draws); its `value` is 1 − ζ, so that worse is
+    /// larger as for the other metrics.
+    pub underdamping: Option<Worst>,
+    /// Stable draws that ring later than [`crate::metrics::RING_AFTER_S`] into a segment.
+    pub ringing: usize,
+    /// Worst late ringing (stable draws), as a fraction of the reference.
+    pub ringing_worst: Option<Worst>,
     /// Worst |fixed − f64| per signal (stable draws), in signal order.
     pub max_diff: Vec<(String, Worst)>,
 }
@@ -183,7 +211,14 @@ impl Envelope {
         }
         keep_max(&mut self.ss_error, o.ss_error, o);
         keep_max(&mut self.overshoot, o.overshoot, o);
+        keep_max(&mut self.loop_overshoot, o.loop_overshoot, o);
         keep_max(&mut self.settling_s, o.settling_s, o);
+        keep_max(&mut self.rise_s, o.rise_s, o);
+        keep_max(&mut self.underdamping, 1.0 - o.damping, o);
+        if o.ringing > 0.0 {
+            self.ringing += 1;
+            keep_max(&mut self.ringing_worst, o.ringing, o);
+        }
         for (name, d) in &o.max_diff {
             match self.max_diff.iter_mut().find(|(n, _)| n == name) {
                 Some((_, w)) => keep_worse(w, *d, o),
@@ -204,6 +239,7 @@ impl Envelope {
         self.unstable += other.unstable;
         self.unstable_ref += other.unstable_ref;
         self.disagree += other.disagree;
+        self.ringing += other.ringing;
         if let Some(u) = other.first_unstable {
             if self.first_unstable.as_ref().is_none_or(|s| u.seed < s.seed) {
                 self.first_unstable = Some(u);
@@ -212,7 +248,11 @@ impl Envelope {
         for (mine, theirs) in [
             (&mut self.ss_error, other.ss_error),
             (&mut self.overshoot, other.overshoot),
+            (&mut self.loop_overshoot, other.loop_overshoot),
             (&mut self.settling_s, other.settling_s),
+            (&mut self.rise_s, other.rise_s),
+            (&mut self.underdamping, other.underdamping),
+            (&mut self.ringing_worst, other.ringing_worst),
         ] {
             if let Some(w) = theirs {
                 keep_max(mine, w.value, &w.outcome);
@@ -271,7 +311,11 @@ mod tests {
             osc_hz: None,
             ss_error: ss,
             overshoot: ss,
+            loop_overshoot: ss,
             settling_s: ss,
+            rise_s: ss,
+            damping: 1.0 / (1.0 + ss),
+            ringing: if seed.is_multiple_of(2) { ss } else { 0.0 },
             max_diff: vec![("x".into(), diff)],
         }
     }

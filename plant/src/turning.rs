@@ -343,9 +343,69 @@ pub fn scenarios() -> Vec<Scenario> {
     ]
 }
 
-/// The scenario named `name`.
+/// The fault scenarios (issue 18, item 5; [`crate::fault`]): a steady 3 mm cut at 500 rpm
+/// in which, from 10 s, the force sensor saturates, sticks, drops out, sees the spikes of a
+/// breaking tool or a burst of noise, or the spindle stalls to 30 % within 0.2 s.
+pub fn fault_scenarios() -> Vec<Scenario> {
+    use crate::fault::{Fault, FaultKind};
+    let cut = |name: &str, faults: Vec<Fault>| {
+        Scenario::new(
+            name,
+            30.0,
+            0.0,
+            &[
+                ("a_mm", Schedule::from_points(&[(1.0, 0.0), (1.0, 3.0)])),
+                ("n_rpm", Schedule::constant(500.0)),
+            ],
+        )
+        .with_faults(faults)
+    };
+    let window = |kind, to_s| Fault {
+        kind,
+        from_s: 10.0,
+        to_s,
+    };
+    vec![
+        cut("adc-saturation", vec![window(FaultKind::Saturate, 14.0)]),
+        cut("stuck-sensor", vec![window(FaultKind::Stuck, 20.0)]),
+        cut("sensor-dropout", vec![window(FaultKind::Dropout, 20.0)]),
+        // A breaking tool: 3 kN spikes of 0.1 s, twice a second, for 4 s.
+        cut(
+            "tool-breakage",
+            vec![window(
+                FaultKind::Spikes {
+                    height: 3.0,
+                    period_s: 0.5,
+                    width_s: 0.1,
+                },
+                14.0,
+            )],
+        ),
+        cut(
+            "noise-burst",
+            vec![window(FaultKind::NoiseBurst { sigma: 0.5 }, 14.0)],
+        ),
+        Scenario::new(
+            "spindle-stall",
+            30.0,
+            0.0,
+            &[
+                ("a_mm", Schedule::from_points(&[(1.0, 0.0), (1.0, 3.0)])),
+                (
+                    "n_rpm",
+                    Schedule::from_points(&[(10.0, 500.0), (10.2, 150.0)]),
+                ),
+            ],
+        ),
+    ]
+}
+
+/// The scenario named `name` (healthy or faulty).
 pub fn scenario_named(name: &str) -> Option<Scenario> {
-    scenarios().into_iter().find(|s| s.name == name)
+    scenarios()
+        .into_iter()
+        .chain(fault_scenarios())
+        .find(|s| s.name == name)
 }
 
 #[cfg(test)]

@@ -51,7 +51,7 @@ extern "C" {
 #define KOREN_MASORY_1981_DIV_FC_HI 5.0f
 #define KOREN_MASORY_1981_DIV_KP_LO 0.25f    /* K_p limits = the spec's K_m range, kN/(mm/s) */
 #define KOREN_MASORY_1981_DIV_KP_HI 6.0f
-#define KOREN_MASORY_1981_DIV_KC_LO 0.2083f  /* K_c limits, (mm/s)/kN */
+#define KOREN_MASORY_1981_DIV_KC_LO 0.20833333f  /* K_c limits K/K_m,max, K/K_m,min (1.25/6, 1.25/0.25), (mm/s)/kN */
 #define KOREN_MASORY_1981_DIV_KC_HI 5.0f
 #define KOREN_MASORY_1981_DIV_U_LO 0.05f     /* feed limits, mm/s */
 #define KOREN_MASORY_1981_DIV_U_HI 5.0f

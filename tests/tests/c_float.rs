@@ -208,6 +208,7 @@ macro_rules! reference {
 fn reference(name: &str) -> Reference {
     match name {
         "koren_masory_1981" => reference!(koren_masory_1981_ref { km, kc, u }),
+        "koren_masory_tuned" => reference!(koren_masory_tuned_ref { km, kc, u }),
         "acc_fixed_gain" => reference!(acc_fixed_gain_ref { u }),
         "milling_acc" => reference!(milling_acc_ref { km, kc, u }),
         "grinding_pi" => reference!(grinding_pi_ref { xi }),

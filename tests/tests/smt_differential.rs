@@ -175,6 +175,11 @@ fn koren_masory_1981_encoding_matches_interpreter() {
 }
 
 #[test]
+fn koren_masory_tuned_encoding_matches_interpreter() {
+    differential("koren_masory_tuned");
+}
+
+#[test]
 fn acc_fixed_gain_encoding_matches_interpreter() {
     differential("acc_fixed_gain");
 }

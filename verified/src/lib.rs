@@ -3,6 +3,8 @@
 //!
 //! * [`koren_masory_1981`]: the adaptive ACC of Koren & Masory (1981), process estimator
 //!   (000_b8cbacf29caa8fe2.txt eqs. 8-9) and variable-gain loop (eqs. 12-13).
+//! * [`koren_masory_tuned`]: the same controller with the loop gain K = 0.2 that `qloop tune`
+//!   chose on the turning plant (`specs/koren_masory_tuned.qloop`, written by the tuner).
 //! * [`acc_fixed_gain`]: conventional ACC with a fixed gain (002_39e44efc2e4f2eb6.txt eqs. 6-9).
 //! * [`grinding_pi`]: the fixed-gain PI grinding force controller of Jenkins & Kurfess
 //!   (004_9e0133852f31a0cf.txt eqs. 3, 5, 8).
@@ -27,6 +29,9 @@
 qloop_macros::controller!("specs/koren_masory_1981.qloop");
 qloop_macros::controller!("specs/koren_masory_1981.qloop", reference);
 qloop_macros::controller!("specs/koren_masory_1981.qloop", kani);
+qloop_macros::controller!("specs/koren_masory_tuned.qloop");
+qloop_macros::controller!("specs/koren_masory_tuned.qloop", reference);
+qloop_macros::controller!("specs/koren_masory_tuned.qloop", kani);
 qloop_macros::controller!("specs/acc_fixed_gain.qloop");
 qloop_macros::controller!("specs/acc_fixed_gain.qloop", reference);
 qloop_macros::controller!("specs/acc_fixed_gain.qloop", kani);

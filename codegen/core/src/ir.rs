@@ -42,6 +42,24 @@ pub struct Program {
     pub tracks: Vec<Track>,
     /// The tables (`table NAME(x: [A, B]) = EXPR, step H;`), in declaration order.
     pub tables: Vec<Table>,
+    /// The `tune` items: candidate values of constants for `qloop tune`. They do not change
+    /// the controller.
+    pub tunes: Vec<Tune>,
+}
+
+/// A `tune` item, checked: a `param` or `const` and its candidate values, in its unit.
+#[derive(Clone, Debug)]
+pub struct Tune {
+    /// The constant's name.
+    pub name: String,
+    /// The candidates, ascending, without repeats.
+    pub values: Vec<f64>,
+    /// Whether the candidates are powers of two (`pow2`): shift gains.
+    pub pow2: bool,
+    /// The span of the constant's value expression, which `qloop tune` rewrites.
+    pub value_span: proc_macro2::Span,
+    /// The `tune` keyword.
+    pub span: proc_macro2::Span,
 }
 
 /// A table: a function of one value given by a compile-time expression, sampled at

@@ -150,11 +150,28 @@ pub fn range_text(lo: f64, hi: f64) -> String {
 }
 
 /// The range of signal `id` as printed: a declared range as the spec wrote it (the shortest
-/// decimal that reads back as the same f64), a derived one rounded outward.
+/// decimal that reads back as the same f64) when that has at most 12 significant digits, else
+/// (a computed end such as `K / 6`) rounded outward like a derived one.
 pub fn signal_range_text(plan: &Plan, id: SigId) -> String {
     let (lo, hi) = plan.summary[id.0].range;
     if plan.prog.sig(id).range.is_some() {
-        format!("[{}, {}]", literal(lo), literal(hi))
+        let end = |v: f64, up: bool| {
+            let l = literal(v);
+            let mantissa = l.split(['e', 'E']).next().unwrap_or("");
+            let digits = mantissa
+                .chars()
+                .filter(char::is_ascii_digit)
+                .skip_while(|c| *c == '0')
+                .count();
+            if digits <= 12 {
+                l
+            } else if up {
+                g_up(v)
+            } else {
+                g_down(v)
+            }
+        };
+        format!("[{}, {}]", end(lo, false), end(hi, true))
     } else {
         range_text(lo, hi)
     }

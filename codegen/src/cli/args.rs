@@ -166,6 +166,60 @@ pub enum Cmd {
         #[arg(long, default_value = "rv32i")]
         target: String,
     },
+    /// Pick the values of the spec's `tune` constants: every combination is simulated in
+    /// closed loop over drawn plant variants (the same draws for all), the ones meeting the
+    /// goals are proved fastest first, and the first whose every obligation proves is written
+    /// back into the spec (--out), with the Pareto front and the reason for the choice.
+    ///
+    /// Exit status 1 when no candidate proves or none meets the goals (the closest that
+    /// proves is still written, and the table says by how much it misses).
+    Tune {
+        /// The spec file (*.qloop) with `tune` items.
+        spec: PathBuf,
+        /// The plant: turning, milling, grinding or finishing.
+        #[arg(long, default_value = "turning")]
+        plant: String,
+        /// Scenarios to draw from (built-in names or TOML files; repeatable). Default: every
+        /// built-in scenario of the plant.
+        #[arg(long)]
+        scenario: Vec<String>,
+        /// Draws per candidate.
+        #[arg(long, default_value_t = 48)]
+        draws: u64,
+        /// Base seed of the draws.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Worker threads (default: every core).
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// Plant integration substeps per controller period.
+        #[arg(long, default_value_t = 20)]
+        substeps: usize,
+        /// Goal: largest worst-case overshoot over the reference, in percent.
+        #[arg(long, default_value_t = 20.0)]
+        max_overshoot: f64,
+        /// Goal: largest worst-case 5% settling time, in seconds.
+        #[arg(long, default_value_t = 3.0)]
+        max_settling: f64,
+        /// Candidates the prover tries at most, in order of preference.
+        #[arg(long, default_value_t = 16)]
+        max_proofs: usize,
+        /// SMT solvers for the proofs.
+        #[arg(long, value_enum, default_value_t = Solvers::Both)]
+        solvers: Solvers,
+        /// Write the tuned spec here.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// The tuned controller's name (default: the spec's).
+        #[arg(long)]
+        name: Option<String>,
+        /// Also write the report to this file.
+        #[arg(long)]
+        report: Option<PathBuf>,
+        /// Target: a built-in name (see `qloop targets`) or a target file (`*.toml`).
+        #[arg(long, default_value = "rv32i")]
+        target: String,
+    },
     /// Run check, gen, a closed-loop simulation (turning, depth steps: 000 Fig. 5) and prove
     /// on the built-in Koren–Masory (1981) spec; write to ./qloop-demo/.
     ///

@@ -12,6 +12,7 @@
 //! | `bench` | [`bench`] |
 //! | `kani` | [`kani`] (runs the Kani harnesses of a crate) |
 //! | `c2d` | [`c2d`] (β-FROH discretisation for a spec's constants) |
+//! | `tune` | [`tune`] (picks the `tune` constants: closed-loop scores, proofs, Pareto front) |
 //! | `targets` | [`targets`] |
 //! | `plants` | [`plants`] (the plant contracts; `sim` binds a spec to one: [`bind`]) |
 
@@ -32,3 +33,4 @@ pub mod sim;
 pub mod sweep;
 pub mod sweep_report;
 pub mod targets;
+pub mod tune;

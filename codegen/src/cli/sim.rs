@@ -39,6 +39,8 @@ pub struct SimResult {
     /// Whether both loops were stable and every cutting segment of the fixed-point loop
     /// settled (for `sim --check`).
     pub ok: bool,
+    /// The trace.
+    pub trace: Trace,
 }
 
 /// `qloop sim SPEC`: loads the spec for `target`, runs it on `plant` in `scenario`, writes
@@ -183,7 +185,48 @@ pub fn write_run(
         metrics: m,
         files,
         summary,
+        trace,
     })
+}
+
+/// A loop's verdict: "stable" only with what it hides said next to it (the worst overshoot
+/// and settling over cutting segments, segments not settled, ringing, the lowest damping).
+pub fn verdict(l: &qloop_plant::metrics::LoopMetrics) -> String {
+    if !l.stable() {
+        return "UNSTABLE".into();
+    }
+    let cut: Vec<&Segment> = l.segments.iter().filter(|s| s.cutting).collect();
+    if cut.is_empty() {
+        return "stable (no cutting segment)".into();
+    }
+    let os = cut.iter().map(|s| s.overshoot).fold(0.0, f64::max);
+    let los = cut.iter().map(|s| s.loop_overshoot).fold(0.0, f64::max);
+    let unsettled = cut.iter().filter(|s| s.settling_s.is_none()).count();
+    let settle = cut.iter().filter_map(|s| s.settling_s).fold(0.0, f64::max);
+    let mut v = format!(
+        "stable, peak {:.0}% over the reference, loop overshoot {:.0}%",
+        100.0 * os,
+        100.0 * los
+    );
+    if unsettled > 0 {
+        v.push_str(&format!(
+            ", {unsettled} of {} segments not settled",
+            cut.len()
+        ));
+    } else {
+        v.push_str(&format!(", settles within {settle:.1} s"));
+    }
+    let ringing = cut.iter().filter(|s| s.ringing.is_some()).count();
+    if ringing > 0 {
+        v.push_str(&format!(
+            ", ringing beyond ±5% after {} s in {ringing}",
+            qloop_plant::metrics::RING_AFTER_S
+        ));
+    }
+    if let Some(z) = cut.iter().filter_map(|s| s.damping).reduce(f64::min) {
+        v.push_str(&format!(", damping ζ ≥ {z:.2}"));
+    }
+    v
 }
 
 fn osc(s: &Segment) -> String {
@@ -194,8 +237,8 @@ fn osc(s: &Segment) -> String {
     }
 }
 
-/// The summary table: per segment and loop, the measured signal's steady-state error,
-/// overshoot, settling time and oscillation; then max |fixed − f64| per signal.
+/// The summary table: per segment and loop, the measured signal's steady-state error, peak
+/// and loop overshoot, rise and settling time, damping, late ringing and oscillation; then max |fixed − f64| per signal.
 pub fn summary(
     a: &SimArgs,
     sc: &Scenario,
@@ -223,15 +266,16 @@ pub fn summary(
     }
     let _ = writeln!(
         s,
-        "\n| segment (s) | loop | cutting | {meas} ss error ({unit}) | overshoot | settling ±5% | oscillating |"
+        "\n| segment (s) | loop | cutting | {meas} ss error ({unit}) | peak over ref. | loop overshoot | rise ±10% | settling ±5% | damping ζ | ringing after {ring} s | oscillating |",
+        ring = qloop_plant::metrics::RING_AFTER_S
     );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|");
     for (f, r) in m.fixed.segments.iter().zip(&m.reference.segments) {
         for (name, seg) in [("fixed", f), ("f64", r)] {
             if !seg.cutting {
                 let _ = writeln!(
                     s,
-                    "| {:.1}–{:.1} | {name} | no (air) | – | – | – | – |",
+                    "| {:.1}–{:.1} | {name} | no (air) | – | – | – | – | – | – | – | – |",
                     seg.span.0,
                     seg.span.1.min(sc.duration_s)
                 );
@@ -239,13 +283,18 @@ pub fn summary(
             }
             let _ = writeln!(
                 s,
-                "| {:.1}–{:.1} | {name} | yes | {:+.4} | {:.1}% | {} | {} |",
+                "| {:.1}–{:.1} | {name} | yes | {:+.4} | {:.1}% | {:.1}% | {} | {} | {} | {} | {} |",
                 seg.span.0,
                 seg.span.1.min(sc.duration_s),
                 seg.ss_error,
                 100.0 * seg.overshoot,
+                100.0 * seg.loop_overshoot,
+                seg.rise_s.map_or("never".into(), |t| format!("{t:.2} s")),
                 seg.settling_s
-                    .map_or("never".into(), |t| format!("{t:.2} s")),
+                    .map_or("not settled".into(), |t| format!("{t:.2} s")),
+                seg.damping.map_or("–".into(), |z| format!("{z:.2}")),
+                seg.ringing
+                    .map_or("no".into(), |r| format!("yes, ±{:.0}%", 100.0 * r)),
                 osc(seg)
             );
         }
@@ -260,12 +309,11 @@ pub fn summary(
             units.get(name.as_str()).copied().unwrap_or("")
         );
     }
-    let verdict = |stable: bool| if stable { "stable" } else { "UNSTABLE" };
     let _ = writeln!(
         s,
-        "\nverdict: fixed-point loop {}, f64 reference loop {}",
-        verdict(m.fixed.stable()),
-        verdict(m.reference.stable())
+        "\nverdict: fixed-point loop {}; f64 reference loop {}",
+        verdict(&m.fixed),
+        verdict(&m.reference)
     );
     if let Some(o) = m.fixed.first_oscillation() {
         let _ = writeln!(

@@ -85,16 +85,52 @@ pub fn report(
         );
     }
     if let Some(w) = &e.overshoot {
-        row(&mut s, "overshoot", w, &|v| format!("{:.1}%", 100.0 * v));
+        row(&mut s, "peak over the reference", w, &|v| {
+            format!("{:.1}%", 100.0 * v)
+        });
+    }
+    if let Some(w) = &e.loop_overshoot {
+        row(
+            &mut s,
+            "loop overshoot (after first reaching it)",
+            w,
+            &|v| format!("{:.1}%", 100.0 * v),
+        );
     }
     if let Some(w) = &e.settling_s {
         row(&mut s, "settling ±5% (s)", w, &|v| {
             if v.is_finite() {
                 format!("{v:.2}")
             } else {
+                "not settled".into()
+            }
+        });
+    }
+    if let Some(w) = &e.rise_s {
+        row(&mut s, "rise to ±10% (s)", w, &|v| {
+            if v.is_finite() {
+                format!("{v:.2}")
+            } else {
                 "never".into()
             }
         });
+    }
+    if let Some(w) = &e.underdamping {
+        row(&mut s, "damping ratio ζ, lowest", w, &|v| {
+            if v > 0.0 {
+                format!("{:.2}", 1.0 - v)
+            } else {
+                "no swing beyond ±5%".into()
+            }
+        });
+    }
+    if let Some(w) = &e.ringing_worst {
+        let label = format!(
+            "ringing beyond ±5% after {} s ({} draws)",
+            qloop_plant::metrics::RING_AFTER_S,
+            e.ringing
+        );
+        row(&mut s, &label, w, &|v| format!("±{:.1}%", 100.0 * v));
     }
     for (name, w) in &e.max_diff {
         let u = units(name);

@@ -13,6 +13,7 @@ pub(crate) mod curvature;
 mod props;
 mod table;
 mod track;
+mod tune;
 mod units;
 use proc_macro2::Span;
 use std::collections::{BTreeSet, HashMap};
@@ -87,6 +88,8 @@ struct Checker {
     let_elems: HashMap<String, Elem>,
     /// How many assignments each signal has had so far (for [`BoolLet`]).
     writes: HashMap<SigId, usize>,
+    /// The span of each constant's value expression (for `tune`).
+    const_value_spans: HashMap<String, Span>,
 }
 
 impl Checker {
@@ -103,6 +106,7 @@ impl Checker {
         let mut word = None;
         let mut body = None;
         let mut prove_items: Vec<PropItem> = Vec::new();
+        let mut tune_items = Vec::new();
         self.scope.push(HashMap::new());
         self.bools.push(HashMap::new());
         self.consts
@@ -182,6 +186,7 @@ impl Checker {
                     body = Some(block);
                 }
                 Item::Prove { items, .. } => prove_items.extend(items.iter().cloned()),
+                Item::Tune(t) => tune_items.push(t.as_ref()),
             }
         }
         let (period, _) = period.ok_or_else(|| {
@@ -210,7 +215,9 @@ impl Checker {
         prove_items.extend(track_props);
         let (invariants, properties) = self.prove(&prove_items)?;
         let recips = self.recips()?;
+        let tunes = self.tunes(&tune_items)?;
         Ok(Program {
+            tunes,
             invariants,
             properties,
             recips,
@@ -404,6 +411,7 @@ impl Checker {
         };
         self.const_units.insert(name.clone(), unit);
         self.consts.insert(name.clone(), (v, c.name.span()));
+        self.const_value_spans.insert(name.clone(), c.value.span());
         let (reference, nominal) = const_attrs(c)?;
         for (flag, mark, prev) in [
             (

@@ -153,14 +153,29 @@ impl Checker {
         Ok(match e {
             SExpr::Lit(l) => PExpr::Const(lit_value(&l.lit)?),
             SExpr::Paren(p) => self.pexpr(&p.expr, ctx)?,
-            SExpr::Unary(u) if matches!(u.op, UnOp::Neg(_)) => {
-                PExpr::Neg(bx(self.pexpr(&u.expr, ctx)?))
-            }
+            SExpr::Unary(u) if matches!(u.op, UnOp::Neg(_)) => match self.pexpr(&u.expr, ctx)? {
+                PExpr::Const(v) => PExpr::Const(-v),
+                x => PExpr::Neg(bx(x)),
+            },
             SExpr::Binary(b) => {
                 let (l, r) = (
                     bx(self.pexpr(&b.left, ctx)?),
                     bx(self.pexpr(&b.right, ctx)?),
                 );
+                // Constants combined by `+ - *` fold into one when the f64 result is exact
+                // (`(1.0 - C2 * KM_MIN)` with binary fractions): the claim stays the same
+                // number, and the prover sees one constant instead of a product.
+                if let (PExpr::Const(a), PExpr::Const(c)) = (l.as_ref(), r.as_ref()) {
+                    let exact = match b.op {
+                        BinOp::Add(_) => exact_sum(*a, *c),
+                        BinOp::Sub(_) => exact_sum(*a, -*c),
+                        BinOp::Mul(_) => exact_product(*a, *c),
+                        _ => None,
+                    };
+                    if let Some(v) = exact {
+                        return Ok(PExpr::Const(v));
+                    }
+                }
                 match b.op {
                     BinOp::Add(_) => PExpr::Add(l, r),
                     BinOp::Sub(_) => PExpr::Sub(l, r),
@@ -267,6 +282,20 @@ impl Checker {
             ),
         })
     }
+}
+
+/// `a + b` if the f64 sum is exact (its rounding error, by Knuth's two-sum, is zero).
+fn exact_sum(a: f64, b: f64) -> Option<f64> {
+    let s = a + b;
+    let bb = s - a;
+    let err = (a - (s - bb)) + (b - bb);
+    (s.is_finite() && err == 0.0).then_some(s)
+}
+
+/// `a · b` if the f64 product is exact (a fused multiply-add recovers its rounding error).
+fn exact_product(a: f64, b: f64) -> Option<f64> {
+    let p = a * b;
+    (p.is_finite() && a.mul_add(b, -p) == 0.0).then_some(p)
 }
 
 fn not_a_condition(e: &SExpr) -> Diag {

@@ -45,6 +45,10 @@ pub enum Item {
     Table(Box<TableDecl>),
     /// `step { ... }` — the update body.
     Step(Block),
+    /// `tune NAME in {A, B, ..};`, `tune NAME in [LO, HI], step H;` or
+    /// `tune NAME in [LO, HI], pow2;`: the candidate values of a `param` or `const` for
+    /// `qloop tune`. The controller does not change: its value stays the declared one.
+    Tune(Box<TuneDecl>),
     /// `prove { ... }` — invariants and step properties to prove.
     Prove {
         /// The items inside the braces.
@@ -52,6 +56,28 @@ pub enum Item {
         /// The `prove` keyword.
         span: Span,
     },
+}
+
+/// A `tune` item: a constant's candidate values.
+#[derive(Clone)]
+pub struct TuneDecl {
+    /// The tuned `param` or `const`.
+    pub name: Ident,
+    /// The candidates.
+    pub set: TuneSet,
+    /// The `tune` keyword.
+    pub span: Span,
+}
+
+/// The candidates of a [`TuneDecl`].
+#[derive(Clone)]
+pub enum TuneSet {
+    /// `{A, B, ..}`: these values.
+    List(Vec<Expr>),
+    /// `[LO, HI], step H`: `LO, LO + H, ..` up to `HI`.
+    Step(Box<RangeAst>, Box<Expr>),
+    /// `[LO, HI], pow2`: every power of two in `[LO, HI]` (shift gains).
+    Pow2(Box<RangeAst>),
 }
 
 /// Which kind of signal a declaration introduces.

@@ -27,10 +27,15 @@ mod kw {
     syn::custom_keyword!(ensure);
     syn::custom_keyword!(table);
     syn::custom_keyword!(error);
+    syn::custom_keyword!(tune);
+    syn::custom_keyword!(pow2);
 }
 
+const TUNE_HELP: &str = "write `tune NAME in {A, B, ..};`, `tune NAME in [LO, HI], step H;` or \
+`tune NAME in [LO, HI], pow2;` (every power of two in the range: shift gains)";
+
 const ITEM_HELP: &str = "a controller body holds `period`, `rounding`, `word`, `input`, `param`, \
-`const`, `table`, `state`, `output`, `step { .. }` and `prove { .. }` items";
+`const`, `table`, `state`, `output`, `tune`, `step { .. }` and `prove { .. }` items";
 
 const TABLE_HELP: &str = "write `table NAME(x: [A, B] \"unit\") = EXPR, step H;` (optionally \
 `, error E`): EXPR a compile-time expression of x, H a power of two";
@@ -153,6 +158,15 @@ fn parse_item(input: ParseStream) -> syn::Result<Item> {
     } else if la.peek(kw::step) {
         input.parse::<kw::step>()?;
         Ok(Item::Step(input.parse()?))
+    } else if la.peek(kw::tune) {
+        if let Some(a) = attrs.first() {
+            return Err(syn::Error::new_spanned(
+                a,
+                "a `tune` item takes no attributes",
+            ));
+        }
+        let span = input.parse::<kw::tune>()?.span;
+        Ok(Item::Tune(Box::new(parse_tune(input, span)?)))
     } else if la.peek(kw::prove) {
         let span = input.parse::<kw::prove>()?.span;
         let content;
@@ -166,6 +180,46 @@ fn parse_item(input: ParseStream) -> syn::Result<Item> {
         let e = la.error();
         Err(syn::Error::new(e.span(), format!("{e}; {ITEM_HELP}")))
     }
+}
+
+fn parse_tune(input: ParseStream, span: proc_macro2::Span) -> syn::Result<TuneDecl> {
+    let name: Ident = input.parse()?;
+    input
+        .parse::<Token![in]>()
+        .map_err(|e| syn::Error::new(e.span(), TUNE_HELP))?;
+    let set = if input.peek(syn::token::Brace) {
+        let content;
+        braced!(content in input);
+        let list = content.parse_terminated(Expr::parse, Token![,])?;
+        if list.is_empty() {
+            return Err(syn::Error::new(
+                content.span(),
+                "no candidates: list at least one value",
+            ));
+        }
+        TuneSet::List(list.into_iter().collect())
+    } else if input.peek(syn::token::Bracket) {
+        let range = match parse_range_decl(input)? {
+            RangeDecl::One(r) => r,
+            RangeDecl::PerElement(a) => return Err(syn::Error::new_spanned(a, TUNE_HELP)),
+        };
+        input
+            .parse::<Token![,]>()
+            .map_err(|e| syn::Error::new(e.span(), TUNE_HELP))?;
+        if input.peek(kw::pow2) {
+            input.parse::<kw::pow2>()?;
+            TuneSet::Pow2(range)
+        } else if input.peek(kw::step) {
+            input.parse::<kw::step>()?;
+            TuneSet::Step(range, Box::new(parse_value(input)?))
+        } else {
+            return Err(input.error(TUNE_HELP));
+        }
+    } else {
+        return Err(input.error(TUNE_HELP));
+    };
+    input.parse::<Token![;]>()?;
+    Ok(TuneDecl { name, set, span })
 }
 
 const PROVE_HELP: &str = "a `prove` block holds `invariant NAME: COND;` and \
