@@ -66,6 +66,8 @@ pub struct Interpreted {
     ids: [Vec<SigId>; 3],
     signals: Signals,
     vars: Vec<i128>,
+    /// The step's working copy of `vars` (kept, so that a step does not allocate).
+    next: Vec<i128>,
     violation: Violations,
 }
 
@@ -94,6 +96,7 @@ impl Interpreted {
             plan,
             ids,
             signals,
+            next: vars.clone(),
             vars,
             violation: Violations::default(),
         }
@@ -120,9 +123,9 @@ impl Controller for Interpreted {
             let f = self.plan.format(*id);
             self.vars[id.0] = i128::from(to_bits(*v, f.frac)).clamp(f.ty.min(), f.ty.max());
         }
-        let mut next = self.vars.clone();
-        match step_fixed(&self.plan, &mut next) {
-            Ok(_) => self.vars = next,
+        self.next.copy_from_slice(&self.vars);
+        match step_fixed(&self.plan, &mut self.next) {
+            Ok(_) => std::mem::swap(&mut self.vars, &mut self.next),
             Err(v) => {
                 self.violation.0.borrow_mut().get_or_insert(v);
             }

@@ -69,16 +69,8 @@ pub fn run(out: &Path) -> CliResult {
     print_run(&t);
     println!();
     let (fig, text) = comparison(&r, &t);
-    for (path, what) in [
-        (out.join("paper-vs-tuned.svg"), 0),
-        (out.join("paper-vs-tuned.png"), 1),
-    ] {
-        if what == 0 {
-            plot::write_svg(&fig, &path).map_err(CliError::Output)?;
-        } else {
-            plot::write_png(&fig, &path).map_err(CliError::Output)?;
-        }
-    }
+    plot::write_svg(&fig, &out.join("paper-vs-tuned.svg")).map_err(CliError::Output)?;
+    plot::write_png(&fig, &out.join("paper-vs-tuned.png")).map_err(CliError::Output)?;
     let p = out.join("paper-vs-tuned.txt");
     write_atomic(&p, &text)?;
     print!("{text}");
