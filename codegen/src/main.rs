@@ -180,6 +180,7 @@ fn run(cli: Cli) -> CliResult {
             name,
         } => cli::c2d::run(&num, &den, period, &beta, &name),
         Cmd::Targets => cli::targets::run(),
+        Cmd::Rules { name } => cli::rules::run(name.as_deref()),
         Cmd::Plants { plant } => cli::plants::run(plant.as_deref()),
     }
 }

@@ -209,6 +209,16 @@ fn reference(name: &str) -> Reference {
     match name {
         "koren_masory_1981" => reference!(koren_masory_1981_ref { km, kc, u }),
         "koren_masory_tuned" => reference!(koren_masory_tuned_ref { km, kc, u }),
+        "koren_masory_safe" => reference!(koren_masory_safe_ref {
+            km,
+            kc,
+            u,
+            held,
+            fault_code,
+            overload_count,
+            unknown_load_stale,
+            unknown_load_last
+        }),
         "acc_fixed_gain" => reference!(acc_fixed_gain_ref { u }),
         "milling_acc" => reference!(milling_acc_ref { km, kc, u }),
         "grinding_pi" => reference!(grinding_pi_ref { xi }),

@@ -61,6 +61,7 @@ fn rust_trajectory(stem: &str, inputs: &[Vec<i64>]) -> Vec<Vec<i64>> {
     match stem {
         "koren_masory_1981" => run!(koren_masory_1981),
         "koren_masory_tuned" => run!(koren_masory_tuned),
+        "koren_masory_safe" => run!(koren_masory_safe),
         "acc_fixed_gain" => run!(acc_fixed_gain),
         "milling_acc" => run!(milling_acc),
         "grinding_pi" => run!(grinding_pi),

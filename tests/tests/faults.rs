@@ -84,3 +84,114 @@ fn without_rules_a_saturated_sensor_drives_the_feed_to_its_floor() {
     let feed = during(&tr, "feed", 12.0, 14.0);
     assert!(feed.iter().all(|f| *f < 0.06), "{feed:?}");
 }
+
+// ---- The safe spec (issue 18, items 4 and 5): the same law with qloop's `feed_safety` rules.
+
+/// FMAX, FMIN, the air-cut feed and the rules' counts in `koren_masory_safe.qloop`.
+const FMAX: f64 = 4.0;
+const FIDL: f64 = 1.0;
+const N_OVERLOAD: f64 = 5.0;
+const N_UNKNOWN: f64 = 10.0;
+const PERIOD: f64 = 0.1;
+
+fn safe(name: &str) -> Trace {
+    let sc = fault_scenarios()
+        .into_iter()
+        .find(|s| s.name == name)
+        .unwrap();
+    run(
+        &Turning::new(TurningParams::default()),
+        fixed_controller!(qloop_verified::koren_masory_safe),
+        reference_controller!(qloop_verified::koren_masory_safe_ref, 0.1),
+        &sc,
+        RunConfig::default(),
+    )
+    .unwrap()
+}
+
+/// The first time the feed hold is set, if it is.
+fn hold_at(tr: &Trace) -> Option<f64> {
+    let t = tr.col("t").unwrap();
+    let h = tr.col("feed_hold").unwrap();
+    t.iter().zip(h).find(|(_, h)| *h > 0.5).map(|(t, _)| *t)
+}
+
+/// The fault code at the end of the run.
+fn fault_code(tr: &Trace) -> f64 {
+    *tr.col("fault").unwrap().last().unwrap()
+}
+
+#[test]
+fn with_the_rules_states_stay_in_range_and_the_feed_never_exceeds_fmax() {
+    let ranges = [
+        ("km", 0.25, 6.0),
+        ("kc", 0.2 / 6.0, 0.8),
+        ("u", 0.05, 5.0),
+        ("held", 0.0, 1.0),
+        ("fault_code", 0.0, 3.0),
+        ("overload_count", 0.0, N_OVERLOAD),
+        ("unknown_load_stale", 0.0, N_UNKNOWN),
+        ("feed", 0.0, FMAX),
+    ];
+    for sc in fault_scenarios() {
+        let tr = safe(&sc.name);
+        for (c, lo, hi) in ranges {
+            for v in tr.col(c).unwrap() {
+                assert!(
+                    v >= lo - 2.5e-4 && v <= hi + 2.5e-4,
+                    "{}: {c} = {v} outside [{lo}, {hi}]",
+                    sc.name
+                );
+            }
+        }
+        // Healthy before the fault: no hold in the first 10 s (approach, engagement, a
+        // noisy steady cut that the stuck-sensor rule must not mistake for a stuck one).
+        if let Some(t) = hold_at(&tr) {
+            assert!(t >= 10.0, "{}: hold at {t} s before the fault", sc.name);
+        }
+        // Once held, the feed is 0 to the end.
+        if let Some(t) = hold_at(&tr) {
+            let feed = during(&tr, "feed", t + PERIOD, 30.0);
+            assert!(feed.iter().all(|f| *f == 0.0), "{}: {feed:?}", sc.name);
+        }
+    }
+}
+
+#[test]
+fn with_the_rules_a_stuck_sensor_holds_the_feed_within_its_periods() {
+    let tr = safe("stuck-sensor");
+    let t = hold_at(&tr).expect("held");
+    // The reading freezes at 10 s; the 10th unchanged reading sets the hold (one more
+    // period for the sample that first repeats, one for the output's sample).
+    assert!(
+        t <= 10.0 + (N_UNKNOWN + 2.0) * PERIOD + 1e-9,
+        "hold at {t} s"
+    );
+    assert_eq!(fault_code(&tr), 3.0);
+}
+
+#[test]
+fn with_the_rules_a_saturated_sensor_holds_the_feed_within_its_periods() {
+    let tr = safe("adc-saturation");
+    let t = hold_at(&tr).expect("held");
+    // The reading is at full scale (5 kN) from 10 s. The back-off takes the command down by
+    // 1/4 mm/s a period (from about 1.1 mm/s), so it falls below FMIN (1/8 mm/s) on the 4th
+    // period and FMIN holds the feed (fault 1), before the overload count reaches its 5.
+    assert!(
+        t <= 10.0 + (N_OVERLOAD + 2.0) * PERIOD + 1e-9,
+        "hold at {t} s"
+    );
+    assert_eq!(fault_code(&tr), 1.0);
+}
+
+#[test]
+fn with_the_rules_a_sensor_dropout_runs_at_the_air_cut_feed_not_the_ceiling() {
+    let tr = safe("sensor-dropout");
+    // The reading is 0 from 10 to 20 s: an air cut to the rules, so the feed goes to FIDL
+    // (1 mm/s) at once, and the true force stays near the reference instead of passing 3 kN.
+    let feed = during(&tr, "feed", 10.3, 20.0);
+    assert!(feed.iter().all(|f| (f - FIDL).abs() < 1e-3), "{feed:?}");
+    let force = during(&tr, "force_n", 10.5, 20.0);
+    assert!(force.iter().all(|f| *f < 1.2 * 1500.0), "{force:?}");
+    assert_eq!(hold_at(&tr), None);
+}

@@ -180,6 +180,11 @@ fn koren_masory_tuned_encoding_matches_interpreter() {
 }
 
 #[test]
+fn koren_masory_safe_encoding_matches_interpreter() {
+    differential("koren_masory_safe");
+}
+
+#[test]
 fn acc_fixed_gain_encoding_matches_interpreter() {
     differential("acc_fixed_gain");
 }

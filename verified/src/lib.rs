@@ -5,6 +5,10 @@
 //!   (000_b8cbacf29caa8fe2.txt eqs. 8-9) and variable-gain loop (eqs. 12-13).
 //! * [`koren_masory_tuned`]: the same controller with the loop gain K = 0.2 that `qloop tune`
 //!   chose on the turning plant (`specs/koren_masory_tuned.qloop`, written by the tuner).
+//! * [`koren_masory_safe`]: the tuned controller with qloop's machining safety rules
+//!   (`use feed_safety;`: air-cut feed, asymmetric back-off, FMAX, FMIN, overload and
+//!   unknown-load holds, the latched feed hold), each rule's properties proved on the composed
+//!   step.
 //! * [`acc_fixed_gain`]: conventional ACC with a fixed gain (002_39e44efc2e4f2eb6.txt eqs. 6-9).
 //! * [`grinding_pi`]: the fixed-gain PI grinding force controller of Jenkins & Kurfess
 //!   (004_9e0133852f31a0cf.txt eqs. 3, 5, 8).
@@ -32,6 +36,9 @@ qloop_macros::controller!("specs/koren_masory_1981.qloop", kani);
 qloop_macros::controller!("specs/koren_masory_tuned.qloop");
 qloop_macros::controller!("specs/koren_masory_tuned.qloop", reference);
 qloop_macros::controller!("specs/koren_masory_tuned.qloop", kani);
+qloop_macros::controller!("specs/koren_masory_safe.qloop");
+qloop_macros::controller!("specs/koren_masory_safe.qloop", reference);
+qloop_macros::controller!("specs/koren_masory_safe.qloop", kani);
 qloop_macros::controller!("specs/acc_fixed_gain.qloop");
 qloop_macros::controller!("specs/acc_fixed_gain.qloop", reference);
 qloop_macros::controller!("specs/acc_fixed_gain.qloop", kani);

@@ -322,6 +322,12 @@ pub enum Cmd {
     },
     /// List the built-in cost-model targets.
     Targets,
+    /// qloop's safety-rule libraries (`use feed_safety;` in a spec): every rule with its
+    /// parameters, ports and proved properties.
+    Rules {
+        /// One library (default: all), or one rule of a library.
+        name: Option<String>,
+    },
     /// The plants' contracts: what each measures and is commanded (with units), its scenario
     /// channels, its default reference and its built-in scenarios.
     Plants {

@@ -29,6 +29,7 @@ pub mod jit;
 pub mod kani;
 pub mod plants;
 pub mod prove;
+pub mod rules;
 pub mod sim;
 pub mod sweep;
 pub mod sweep_report;

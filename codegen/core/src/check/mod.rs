@@ -187,6 +187,8 @@ impl Checker {
                 }
                 Item::Prove { items, .. } => prove_items.extend(items.iter().cloned()),
                 Item::Tune(t) => tune_items.push(t.as_ref()),
+                // Expanded away by `lang::rules` before this pass.
+                Item::Rule(_) | Item::Apply(_) | Item::Use { .. } => {}
             }
         }
         let (period, _) = period.ok_or_else(|| {

@@ -49,6 +49,17 @@ pub enum Item {
     /// `tune NAME in [LO, HI], pow2;`: the candidate values of a `param` or `const` for
     /// `qloop tune`. The controller does not change: its value stays the declared one.
     Tune(Box<TuneDecl>),
+    /// `rule NAME(PARAM: DEFAULT "unit", ..) on (PORT, ..) { .. }`: a safety rule, a spec
+    /// fragment reused by `apply` (see [`crate::lang::rules`]).
+    Rule(Box<RuleDef>),
+    /// `apply NAME(PARAM = VALUE, ..) on (PORT = SIGNAL, ..) [as ALIAS];`: an instance of a
+    /// rule, expanded in place by [`crate::lang::rules`].
+    Apply(Box<ApplyDecl>),
+    /// `use LIBRARY;`: the rules of one of qloop's rule libraries (`feed_safety`).
+    Use {
+        /// The library's name.
+        name: Ident,
+    },
     /// `prove { ... }` — invariants and step properties to prove.
     Prove {
         /// The items inside the braces.
@@ -214,4 +225,50 @@ pub struct PropFor {
     pub range: syn::ExprRange,
     /// The items of the body.
     pub items: Vec<PropItem>,
+}
+
+/// A `rule` definition: a reusable fragment of a spec (issue 18, item 4).
+#[derive(Clone)]
+pub struct RuleDef {
+    /// Doc lines.
+    pub docs: Vec<String>,
+    /// The rule's name.
+    pub name: Ident,
+    /// Its parameters: name, default value, unit.
+    pub params: Vec<RuleParam>,
+    /// Its ports: names in the body bound to the host's signals by `apply`.
+    pub ports: Vec<Ident>,
+    /// The body's tokens (items: `const`, `state`, `output`, `table`, `pre { .. }`,
+    /// `step { .. }`, `prove { .. }`), parsed per instance after renaming.
+    pub body: proc_macro2::TokenStream,
+    /// Whether the rule comes from a library (its spans are not the spec's).
+    pub library: bool,
+}
+
+/// One parameter of a [`RuleDef`].
+#[derive(Clone)]
+pub struct RuleParam {
+    /// Name.
+    pub name: Ident,
+    /// Default value, if any.
+    pub default: Option<Expr>,
+    /// Unit.
+    pub unit: Option<LitStr>,
+}
+
+/// An `apply` item: one instance of a rule.
+#[derive(Clone)]
+pub struct ApplyDecl {
+    /// Doc lines: what this instance is for (they document its parameters' constants).
+    pub docs: Vec<String>,
+    /// The rule applied.
+    pub rule: Ident,
+    /// `PARAM = VALUE` arguments.
+    pub args: Vec<(Ident, Expr)>,
+    /// `PORT = SIGNAL` bindings.
+    pub ports: Vec<(Ident, Ident)>,
+    /// `as ALIAS`: the instance's name (default: the rule's).
+    pub alias: Option<Ident>,
+    /// The `apply` keyword.
+    pub span: Span,
 }

@@ -112,6 +112,7 @@ const NEWTON_MARGIN: f64 = 1.0 / 256.0;
 
 /// Rewrites `ast` so that every signal, `let` and expression is a scalar.
 pub fn expand(ast: &SpecAst) -> Result<Expanded> {
+    let ast = &super::rules::instantiate(ast)?;
     let mut x = Expander::default();
     let mut items = Vec::with_capacity(ast.items.len());
     for item in &ast.items {

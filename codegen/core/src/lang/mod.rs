@@ -3,4 +3,5 @@
 pub mod ast;
 pub mod expand;
 pub mod parse;
+pub mod rules;
 pub mod scan;

@@ -29,13 +29,25 @@ mod kw {
     syn::custom_keyword!(error);
     syn::custom_keyword!(tune);
     syn::custom_keyword!(pow2);
+    syn::custom_keyword!(rule);
+    syn::custom_keyword!(apply);
+    syn::custom_keyword!(on);
+    syn::custom_keyword!(pre);
 }
 
 const TUNE_HELP: &str = "write `tune NAME in {A, B, ..};`, `tune NAME in [LO, HI], step H;` or \
 `tune NAME in [LO, HI], pow2;` (every power of two in the range: shift gains)";
 
 const ITEM_HELP: &str = "a controller body holds `period`, `rounding`, `word`, `input`, `param`, \
-`const`, `table`, `state`, `output`, `tune`, `step { .. }` and `prove { .. }` items";
+`const`, `table`, `state`, `output`, `tune`, `rule`, `apply`, `use`, `step { .. }` and \
+`prove { .. }` items";
+
+const RULE_HELP: &str = "write `rule NAME(PARAM: DEFAULT \"unit\", ..) on (PORT, ..) { .. }`: \
+parameters with an optional default and unit, the ports the body uses, and a body of `const`, \
+`state`, `output`, `table`, `pre { .. }`, `step { .. }` and `prove { .. }` items";
+
+const APPLY_HELP: &str = "write `apply NAME(PARAM = VALUE, ..) on (PORT = SIGNAL, ..);`, \
+optionally followed by `as ALIAS` before the `;`";
 
 const TABLE_HELP: &str = "write `table NAME(x: [A, B] \"unit\") = EXPR, step H;` (optionally \
 `, error E`): EXPR a compile-time expression of x, H a power of two";
@@ -167,6 +179,32 @@ fn parse_item(input: ParseStream) -> syn::Result<Item> {
         }
         let span = input.parse::<kw::tune>()?.span;
         Ok(Item::Tune(Box::new(parse_tune(input, span)?)))
+    } else if la.peek(kw::rule) {
+        Ok(Item::Rule(Box::new(parse_rule(input, &attrs, false)?)))
+    } else if la.peek(kw::apply) {
+        if let Some(a) = attrs.iter().find(|a| !a.path().is_ident("doc")) {
+            return Err(syn::Error::new_spanned(
+                a,
+                "only doc comments may stand on an `apply` item",
+            ));
+        }
+        let mut a = parse_apply(input)?;
+        a.docs = doc_lines(&attrs);
+        Ok(Item::Apply(Box::new(a)))
+    } else if la.peek(Token![use]) {
+        input.parse::<Token![use]>()?;
+        if input.peek(LitStr) {
+            let lit: LitStr = input.parse()?;
+            return Err(syn::Error::new(
+                lit.span(),
+                "rules files by path are not supported: `use` takes one of qloop's rule \
+                 libraries (`use feed_safety;`); define your own rules in the spec with \
+                 `rule NAME(..) on (..) { .. }`",
+            ));
+        }
+        let name: Ident = input.parse()?;
+        input.parse::<Token![;]>()?;
+        Ok(Item::Use { name })
     } else if la.peek(kw::prove) {
         let span = input.parse::<kw::prove>()?.span;
         let content;
@@ -220,6 +258,178 @@ fn parse_tune(input: ParseStream, span: proc_macro2::Span) -> syn::Result<TuneDe
     };
     input.parse::<Token![;]>()?;
     Ok(TuneDecl { name, set, span })
+}
+
+/// `rule NAME(PARAMS) on (PORTS) { BODY }` after its attributes; `library` for a rule read
+/// from one of qloop's libraries.
+pub(crate) fn parse_rule(
+    input: ParseStream,
+    attrs: &[Attribute],
+    library: bool,
+) -> syn::Result<RuleDef> {
+    if let Some(a) = attrs.iter().find(|a| !a.path().is_ident("doc")) {
+        return Err(syn::Error::new_spanned(
+            a,
+            "only doc comments may stand on a rule",
+        ));
+    }
+    input.parse::<kw::rule>()?;
+    let name: Ident = input.parse()?;
+    let content;
+    syn::parenthesized!(content in input);
+    let mut params = Vec::new();
+    while !content.is_empty() {
+        let pname: Ident = content.parse()?;
+        let default = if content.peek(Token![:]) {
+            content.parse::<Token![:]>()?;
+            Some(parse_arg(&content)?)
+        } else {
+            None
+        };
+        let unit = parse_unit(&content)?;
+        params.push(RuleParam {
+            name: pname,
+            default,
+            unit,
+        });
+        if !content.is_empty() {
+            content
+                .parse::<Token![,]>()
+                .map_err(|e| syn::Error::new(e.span(), RULE_HELP))?;
+        }
+    }
+    input
+        .parse::<kw::on>()
+        .map_err(|e| syn::Error::new(e.span(), RULE_HELP))?;
+    let content;
+    syn::parenthesized!(content in input);
+    let ports = content
+        .parse_terminated(Ident::parse, Token![,])?
+        .into_iter()
+        .collect();
+    let body;
+    braced!(body in input);
+    Ok(RuleDef {
+        docs: doc_lines(attrs),
+        name,
+        params,
+        ports,
+        body: body.parse()?,
+        library,
+    })
+}
+
+/// `apply NAME(ARGS) on (BINDINGS) [as ALIAS];`
+fn parse_apply(input: ParseStream) -> syn::Result<ApplyDecl> {
+    let span = input.parse::<kw::apply>()?.span;
+    let rule: Ident = input.parse()?;
+    let mut args = Vec::new();
+    if input.peek(syn::token::Paren) {
+        let content;
+        syn::parenthesized!(content in input);
+        while !content.is_empty() {
+            let name: Ident = content.parse()?;
+            content
+                .parse::<Token![=]>()
+                .map_err(|e| syn::Error::new(e.span(), APPLY_HELP))?;
+            args.push((name, parse_arg(&content)?));
+            if !content.is_empty() {
+                content.parse::<Token![,]>()?;
+            }
+        }
+    }
+    input
+        .parse::<kw::on>()
+        .map_err(|e| syn::Error::new(e.span(), APPLY_HELP))?;
+    let content;
+    syn::parenthesized!(content in input);
+    let mut ports = Vec::new();
+    while !content.is_empty() {
+        let port: Ident = content.parse()?;
+        content
+            .parse::<Token![=]>()
+            .map_err(|e| syn::Error::new(e.span(), APPLY_HELP))?;
+        ports.push((port, content.parse()?));
+        if !content.is_empty() {
+            content.parse::<Token![,]>()?;
+        }
+    }
+    let alias = if input.peek(Token![as]) {
+        input.parse::<Token![as]>()?;
+        Some(input.parse()?)
+    } else {
+        None
+    };
+    input
+        .parse::<Token![;]>()
+        .map_err(|e| syn::Error::new(e.span(), APPLY_HELP))?;
+    Ok(ApplyDecl {
+        docs: Vec::new(),
+        rule,
+        args,
+        ports,
+        alias,
+        span,
+    })
+}
+
+/// A constant expression inside an argument list: stops before `,` or a unit string.
+fn parse_arg(input: ParseStream) -> syn::Result<Expr> {
+    let mut tokens = TokenStream::new();
+    while !input.is_empty() && !input.peek(Token![,]) && !input.peek(LitStr) {
+        let tt: proc_macro2::TokenTree = input.parse()?;
+        tokens.extend(std::iter::once(tt));
+    }
+    if tokens.is_empty() {
+        return Err(input.error("expected a value"));
+    }
+    syn::parse2(tokens)
+}
+
+/// The items of a rule's body (after renaming): the controller items it may hold, plus
+/// `pre { .. }` (statements placed before the host's step).
+pub(crate) fn parse_rule_body(tokens: TokenStream) -> Result<Vec<RuleItem>> {
+    let parser = |input: ParseStream| -> syn::Result<Vec<RuleItem>> {
+        let mut items = Vec::new();
+        while !input.is_empty() {
+            if input.peek(kw::pre) && input.peek2(syn::token::Brace) {
+                input.parse::<kw::pre>()?;
+                items.push(RuleItem::Pre(input.parse()?));
+            } else {
+                items.push(RuleItem::Item(Box::new(parse_item(input)?)));
+            }
+        }
+        Ok(items)
+    };
+    syn::parse::Parser::parse2(parser, tokens).map_err(Diag::from)
+}
+
+/// The rules of a library file: `rule` items only.
+pub(crate) fn parse_rule_file(src: &str) -> Result<Vec<RuleDef>> {
+    let tokens: TokenStream = src
+        .parse()
+        .map_err(|e: proc_macro2::LexError| Diag::new(e.span(), format!("cannot lex: {e}")))?;
+    let parser = |input: ParseStream| -> syn::Result<Vec<RuleDef>> {
+        let mut rules = Vec::new();
+        while !input.is_empty() {
+            let attrs = input.call(Attribute::parse_inner)?;
+            if !attrs.is_empty() {
+                continue;
+            }
+            let attrs = input.call(Attribute::parse_outer)?;
+            rules.push(parse_rule(input, &attrs, true)?);
+        }
+        Ok(rules)
+    };
+    syn::parse::Parser::parse2(parser, tokens).map_err(Diag::from)
+}
+
+/// One item of a rule's body.
+pub(crate) enum RuleItem {
+    /// A controller item.
+    Item(Box<Item>),
+    /// `pre { .. }`.
+    Pre(syn::Block),
 }
 
 const PROVE_HELP: &str = "a `prove` block holds `invariant NAME: COND;` and \
