@@ -224,3 +224,31 @@ fn misuses_are_located_errors() {
     }
     assert!(failed.is_empty(), "{}", failed.join("\n"));
 }
+
+#[test]
+fn a_flag_is_an_output() {
+    let t = Target::default();
+    let src = host("").replace("    input fc:", "    #[flag]\n    input fc:");
+    let Err(d) = compile_str(&src, &t) else {
+        panic!("a flag on an input compiles")
+    };
+    let err = d.render("x.qloop", &src);
+    assert!(err.contains("`#[flag]` applies to outputs only"), "{err}");
+    assert!(err.contains(":4:5"), "{err}");
+    let ok = host("").replace(
+        "    output feed",
+        "    #[flag]\n    output hold;\n    output feed",
+    );
+    let ok = ok.replace(
+        "        feed = u;",
+        "        feed = u;\n        hold = 0.0;",
+    );
+    let plan = compile_str(&ok, &t).unwrap_or_else(|d| panic!("{}", d.render("ok", &ok)));
+    let hold = plan
+        .prog
+        .signals
+        .iter()
+        .find(|s| s.name == "hold")
+        .expect("hold");
+    assert!(hold.flag);
+}

@@ -26,6 +26,11 @@ fig grinding_pi grinding force-step grinding-pi-force-step
 fig grinding_pi grinding eta-varying grinding-pi-eta-varying
 fig grinding_adaptive_pzc grinding eta-varying grinding-apzc-eta-varying
 fig gac_surface_finish finishing tool-failure gac-tool-failure
+# The safe spec (issue 18: the tuned law with qloop's `feed_safety` rules) through the turning
+# plant's fault scenarios: the summaries say when the fault came and when the hold was set.
+for sc in adc-saturation stuck-sensor sensor-dropout tool-breakage noise-burst spindle-stall; do
+  fig koren_masory_safe turning "$sc" "safe-$sc"
+done
 # The paper's tuning against `qloop tune`'s (issue 18): the demo's comparison figure.
 ./target/release/qloop demo --out "$tmp/demo" >/dev/null
 for ext in svg png txt; do cp "$tmp/demo/paper-vs-tuned.$ext" "docs/figures/paper-vs-tuned-depth-steps.$ext"; done

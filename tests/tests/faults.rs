@@ -174,9 +174,10 @@ fn with_the_rules_a_stuck_sensor_holds_the_feed_within_its_periods() {
 fn with_the_rules_a_saturated_sensor_holds_the_feed_within_its_periods() {
     let tr = safe("adc-saturation");
     let t = hold_at(&tr).expect("held");
-    // The reading is at full scale (5 kN) from 10 s. The back-off takes the command down by
-    // 1/4 mm/s a period (from about 1.1 mm/s), so it falls below FMIN (1/8 mm/s) on the 4th
-    // period and FMIN holds the feed (fault 1), before the overload count reaches its 5.
+    // The reading is at full scale (5 kN) from 10 s. The law (K_c·(F_r − 5 kN), about
+    // −0.5 mm/s a period) and the back-off take the command from about 1 mm/s below FMIN
+    // (1/8 mm/s) on the 3rd period, and FMIN holds the feed (fault 1) before the overload
+    // count reaches its 5.
     assert!(
         t <= 10.0 + (N_OVERLOAD + 2.0) * PERIOD + 1e-9,
         "hold at {t} s"
@@ -194,4 +195,67 @@ fn with_the_rules_a_sensor_dropout_runs_at_the_air_cut_feed_not_the_ceiling() {
     let force = during(&tr, "force_n", 10.5, 20.0);
     assert!(force.iter().all(|f| *f < 1.2 * 1500.0), "{force:?}");
     assert_eq!(hold_at(&tr), None);
+}
+
+/// The feed and the reading at each period: (t, reading, feed, u).
+fn rows(tr: &Trace) -> Vec<(f64, f64, f64, f64)> {
+    let c = |n: &str| tr.col(n).unwrap();
+    let (t, fc, feed, u) = (c("t"), c("fc"), c("feed"), c("u"));
+    (0..t.len()).map(|k| (t[k], fc[k], feed[k], u[k])).collect()
+}
+
+/// Speed-up at most UP = 1/8 mm/s per period (the back-off rule's proved property), checked
+/// on the compiled controller's trace.
+fn speed_up_is_limited(name: &str, tr: &Trace) {
+    for w in rows(tr).windows(2) {
+        let ((_, _, _, u0), (t, _, _, u1)) = (w[0], w[1]);
+        assert!(
+            u1 - u0 <= 0.125 + 1e-9,
+            "{name}: u rose {} at {t} s",
+            u1 - u0
+        );
+    }
+}
+
+#[test]
+fn with_the_rules_a_breaking_tool_backs_the_feed_off_at_every_spike() {
+    let tr = safe("tool-breakage");
+    speed_up_is_limited("tool-breakage", &tr);
+    let mut spikes = 0;
+    for w in rows(&tr).windows(2) {
+        let ((_, _, _, u0), (t, fc, _, u1)) = (w[0], w[1]);
+        // A reading above LOAD = 2 kN: the command falls by at least K·UP = 1/4 mm/s (it
+        // starts well above the floor's 1/4 margin here).
+        if fc > 2.0 && u0 >= 0.05 + 0.25 {
+            spikes += 1;
+            assert!(u1 <= u0 - 0.25 + 1e-9, "fell {} at {t} s", u0 - u1);
+        }
+    }
+    // Two spikes a second for 4 s.
+    assert!(spikes >= 8, "{spikes} spikes seen");
+    assert_eq!(hold_at(&tr), None);
+}
+
+#[test]
+fn with_the_rules_a_noise_burst_neither_holds_nor_speeds_up_fast() {
+    let tr = safe("noise-burst");
+    speed_up_is_limited("noise-burst", &tr);
+    assert_eq!(hold_at(&tr), None);
+    // The true force stays within 60 % of the reference through the burst.
+    let force = during(&tr, "force_n", 10.0, 14.0);
+    assert!(force.iter().all(|f| *f < 1.6 * 1500.0), "{force:?}");
+}
+
+#[test]
+fn with_the_rules_a_spindle_stall_holds_the_feed() {
+    let tr = safe("spindle-stall");
+    // The spindle falls to 30 % in 0.2 s from 10 s: the chip thickens and the force rises;
+    // the law and the back-off cut the command below FMIN, which holds the feed (fault 1)
+    // within half a second, before the true force reaches 2.5 times the reference.
+    let t = hold_at(&tr).expect("held");
+    assert!(t <= 10.5 + 1e-9, "hold at {t} s");
+    assert_eq!(fault_code(&tr), 1.0);
+    let force = tr.col("force_n").unwrap();
+    let peak = force.iter().fold(0.0f64, |a, b| a.max(*b));
+    assert!(peak < 2.5 * 1500.0, "peak {peak} N");
 }

@@ -449,12 +449,16 @@ fn can_install() -> bool {
     false
 }
 
+/// The machine-wide HAL session: one halrun test at a time.
+static HAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 /// One test for every spec, in sequence: `run.sh` holds the machine-wide HAL session.
 #[test]
 fn halrun_matches_the_rust_controller_for_every_seed_spec() {
     if tool("halcompile").is_none() || tool("halrun").is_none() || !can_install() {
         return;
     }
+    let _hal = HAL.lock().unwrap_or_else(|e| e.into_inner());
     let dir = scratch("linuxcnc");
     for stem in spec_stems() {
         let plan = plan_for(&stem, "host");
@@ -479,4 +483,32 @@ fn halrun_matches_the_rust_controller_for_every_seed_spec() {
         assert!(pass.is_some(), "{stem}: no PASS line:\n{out}");
         eprintln!("{stem}: {}", pass.unwrap_or_default());
     }
+}
+
+/// Issue 18, item 4: the safe spec's component has the bit pin `feed-hold` (its `#[flag]`
+/// output) and the pin `fault`, and in halrun a spindle load held constant (a stuck sensor)
+/// sets the hold on the 10th unchanged reading: FALSE at 0.5 s, TRUE at 1.8 s with fault 3 and
+/// the feed 0 (`targets/linuxcnc/hold.sh`).
+#[test]
+fn halrun_sets_feed_hold_and_fault_on_the_safe_component() {
+    let c = comp("koren_masory_safe");
+    assert!(
+        c.contains("\npin out bit feed_hold "),
+        "no bit pin feed_hold"
+    );
+    assert!(c.contains("\npin out float fault "), "no pin fault");
+    if tool("halcompile").is_none() || tool("halrun").is_none() || !can_install() {
+        return;
+    }
+    let _hal = HAL.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = scratch("linuxcnc-hold");
+    let plan = plan_for("koren_masory_safe", "host");
+    let comp_file = dir.join(format!("{}.comp", component_name(&plan)));
+    std::fs::write(&comp_file, c).unwrap();
+    let out = run(Command::new("bash")
+        .arg(root().join("targets/linuxcnc/hold.sh"))
+        .arg(&comp_file));
+    let pass = out.lines().find(|l| l.starts_with("PASS: "));
+    assert!(pass.is_some(), "no PASS line:\n{out}");
+    eprintln!("{}", pass.unwrap_or_default());
 }

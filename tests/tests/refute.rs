@@ -20,6 +20,8 @@ qloop_macros::controller!("fixtures/refute/determinant_bound_too_high.qloop");
 qloop_macros::controller!("fixtures/refute/supervisor_switches_early.qloop");
 qloop_macros::controller!("fixtures/refute/pole_placement_sign_error.qloop");
 qloop_macros::controller!("fixtures/refute/law_check_looser_than_invariant.qloop");
+qloop_macros::controller!("fixtures/refute/rule_counter_off_by_one.qloop");
+qloop_macros::controller!("fixtures/refute/backoff_factor_at_range_edge.qloop");
 
 fn fixture(name: &str) -> (String, PathBuf) {
     let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -280,6 +282,7 @@ fn corpus_is_complete() {
     assert_eq!(
         names,
         [
+            "backoff_factor_at_range_edge",
             "c2_too_large",
             "claimed_range_too_narrow",
             "csd_partial_sum",
@@ -290,10 +293,58 @@ fn corpus_is_complete() {
             "property_sign_error",
             "recip_tracker_gain_too_large",
             "rls_unbounded_covariance",
+            "rule_counter_off_by_one",
             "supervisor_switches_early",
             "table_claim_too_small"
         ]
     );
+}
+
+/// A rule's counter with an off-by-one (issue 18, item 6): from the refuting pre-state (the
+/// count at N − 1 or more, the load above the limit), the compiled step does not set the hold.
+#[test]
+fn rule_counter_off_by_one_does_not_trip_in_compiled_code() {
+    let (_, o) = refuted("rule_counter_off_by_one");
+    let mut c = rule_counter_off_by_one::Controller::new();
+    let init = c.states();
+    let count = cex_or(&o, "pre_late_count", init.late_count.to_bits().into());
+    let held = cex_or(&o, "pre_held", init.held.to_bits().into());
+    c.set_states(rule_counter_off_by_one::States {
+        u: FixedI16::from_bits(cex_or(&o, "pre_u", init.u.to_bits().into()) as i16),
+        held: FixedI16::from_bits(held as i16),
+        late_count: FixedI16::from_bits(count as i16),
+    });
+    let fc = FixedI16::from_bits(cex(&o, "in_fc") as i16);
+    c.step(rule_counter_off_by_one::Inputs { fc });
+    let s = c.states();
+    assert!(fc.to_num::<f64>() > 3.5 && s.late_count.to_num::<f64>() >= 4.0);
+    assert!(s.held.to_num::<f64>() < 1.0, "the hold was set");
+}
+
+/// A back-off claimed at the range edge (issue 18, item 6): from the refuting pre-state the
+/// compiled step falls by less than K · UP = 1/4 mm/s, because the command is within 1/4 of
+/// its floor.
+#[test]
+fn backoff_factor_at_range_edge_falls_short_in_compiled_code() {
+    let (_, o) = refuted("backoff_factor_at_range_edge");
+    let mut c = backoff_factor_at_range_edge::Controller::new();
+    let u0 = cex(&o, "pre_u");
+    c.set_states(backoff_factor_at_range_edge::States {
+        u: FixedI16::from_bits(u0 as i16),
+    });
+    let fc = FixedI16::from_bits(cex(&o, "in_fc") as i16);
+    c.step(backoff_factor_at_range_edge::Inputs { fc });
+    let (before, after) = (
+        FixedI16::<fixed::types::extra::U12>::from_bits(u0 as i16).to_num::<f64>(),
+        c.states().u.to_num::<f64>(),
+    );
+    assert!(fc.to_num::<f64>() > 2.0);
+    assert!(
+        after > before - 0.25,
+        "fell {} from {before}",
+        before - after
+    );
+    assert!(before < 0.05 + 0.25, "not at the edge: {before}");
 }
 
 /// The supervisor with an off-by-one in its residence test (issue 17): from the refuting

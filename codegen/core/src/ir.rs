@@ -364,6 +364,9 @@ pub struct Signal {
     pub claim: Option<(f64, f64)>,
     /// `#[unsaturated]` on a state: stores do not clamp; the range is an obligation instead.
     pub unsaturated: bool,
+    /// `#[flag]` on an output: a 0/1 value (true above 1/2), a `bit` pin in the LinuxCNC
+    /// component; the same output everywhere else.
+    pub flag: bool,
     /// Doc lines.
     pub docs: Vec<String>,
     /// Declaration site.

@@ -322,5 +322,51 @@ pub fn summary(
             o.span.0, o.osc_hz, o.osc_amplitude
         );
     }
+    // Under a sensor fault or a feed hold the loop metrics above describe a loop that was
+    // broken or stopped on purpose: say when.
+    for f in &sc.faults {
+        let _ = writeln!(
+            s,
+            "sensor fault: {} from {:.1} s to {:.1} s",
+            fault_text(&f.kind),
+            f.from_s,
+            f.to_s
+        );
+    }
+    for id in a.plan.prog.ids_of(qloop_core::ir::SigKind::Output) {
+        let out = a.plan.prog.sig(id);
+        if !out.flag {
+            continue;
+        }
+        let first_set = |col: &str| {
+            let (t, v) = (trace.col("t")?, trace.col(col)?);
+            t.iter().zip(v).find(|(_, v)| *v > 0.5).map(|(t, _)| *t)
+        };
+        let when =
+            |t: Option<f64>| t.map_or("never set".to_string(), |t| format!("set at {t:.2} s"));
+        let _ = writeln!(
+            s,
+            "flag {}: fixed-point {}, f64 reference {}",
+            out.name,
+            when(first_set(&out.name)),
+            when(first_set(&format!("{}_ref", out.name)))
+        );
+    }
     s
+}
+
+/// A sensor fault in words.
+fn fault_text(k: &qloop_plant::fault::FaultKind) -> String {
+    use qloop_plant::fault::FaultKind::*;
+    match k {
+        Saturate => "saturated at full scale".into(),
+        Stuck => "stuck".into(),
+        Dropout => "dropped out to zero".into(),
+        Spikes {
+            height,
+            period_s,
+            width_s,
+        } => format!("spikes of {height} every {period_s} s, {width_s} s wide"),
+        NoiseBurst { sigma } => format!("noise burst, σ = {sigma}"),
+    }
 }

@@ -237,6 +237,16 @@ fn layout(plan: &Plan) -> Result<Layout, Unrepresentable> {
     }
     let first = &outputs[0];
     let fo = p.sig(first.id);
+    if fo.flag {
+        return err(
+            spec,
+            format!(
+                "its first output `{}` is a `#[flag]`, but the first output drives \
+                 `adaptive-feed`; declare the feed output first",
+                fo.name
+            ),
+        );
+    }
     let unit = crate::units::parse(fo.unit.as_deref().unwrap_or("")).ok();
     // A dimensionless first output (a fraction, or %) is already an override: 1 (100 %) is
     // adaptive feed 1. Anything else is scaled by its range maximum.

@@ -455,7 +455,12 @@ impl Checker {
             lsb,
             claim,
             unsaturated,
+            flag,
         } = fmt_attrs(&s.attrs, &|e| self.const_eval(e))?;
+        if let (Some(sp), false) = (flag, s.kind == SignalKw::Output) {
+            return Err(Diag::new(sp, "`#[flag]` applies to outputs only")
+                .help("a flag is a 0/1 output: a `bit` pin in the LinuxCNC component"));
+        }
         if let Some((_, sp)) = claim {
             return Err(
                 Diag::new(sp, "`#[range]` claims go on `let` bindings").help(
@@ -573,6 +578,7 @@ impl Checker {
             lsb,
             claim: None,
             unsaturated: unsaturated.is_some(),
+            flag: flag.is_some(),
             docs: doc_lines(&s.attrs),
             span: s.name.span(),
         });
@@ -714,9 +720,13 @@ impl Checker {
                     lsb,
                     claim,
                     unsaturated,
+                    flag,
                 } = fmt_attrs(&local.attrs, &|e| self.const_eval(e))?;
                 if let Some(sp) = unsaturated {
                     return Err(Diag::new(sp, "`#[unsaturated]` applies to states only"));
+                }
+                if let Some(sp) = flag {
+                    return Err(Diag::new(sp, "`#[flag]` applies to outputs only"));
                 }
                 // A Newton iterate is stored in the default word, sized to its clamp: its
                 // product with `d` then stays a single widening multiply.
@@ -739,6 +749,7 @@ impl Checker {
                     lsb,
                     claim: claim.map(|c| c.0),
                     unsaturated: false,
+                    flag: false,
                     docs: doc_lines(&local.attrs),
                     span: ident.span(),
                 });
@@ -1357,6 +1368,7 @@ struct Attrs {
     lsb: Option<f64>,
     claim: Option<((f64, f64), Span)>,
     unsaturated: Option<Span>,
+    flag: Option<Span>,
 }
 
 /// Reads `#[q(i32, 20)]`, `#[lsb(1e-3)]`, `#[range(LO, HI)]` and `#[unsaturated]`.
@@ -1377,6 +1389,7 @@ fn fmt_attrs(attrs: &[syn::Attribute], eval: &dyn Fn(&SExpr) -> Result<f64>) -> 
     let mut lsb = None;
     let mut claim = None;
     let mut unsaturated = None;
+    let mut flag = None;
     for a in attrs {
         if a.path().is_ident("doc") {
             continue;
@@ -1419,6 +1432,8 @@ fn fmt_attrs(attrs: &[syn::Attribute], eval: &dyn Fn(&SExpr) -> Result<f64>) -> 
             });
         } else if a.path().is_ident("unsaturated") {
             unsaturated = Some(a.span());
+        } else if a.path().is_ident("flag") {
+            flag = Some(a.span());
         } else if a.path().is_ident("range") {
             let args = a
                 .parse_args_with(
@@ -1446,7 +1461,7 @@ fn fmt_attrs(attrs: &[syn::Attribute], eval: &dyn Fn(&SExpr) -> Result<f64>) -> 
             lsb = Some(v);
         } else {
             return Err(Diag::new(a.span(), "unknown attribute").help(
-                "declarations take `///` docs, `#[q(TYPE, FRAC)]`, `#[lsb(RESOLUTION)]`, `#[range(LO, HI)]` (on `let`) and `#[unsaturated]` (on states)",
+                "declarations take `///` docs, `#[q(TYPE, FRAC)]`, `#[lsb(RESOLUTION)]`, `#[range(LO, HI)]` (on `let`), `#[unsaturated]` (on states) and `#[flag]` (on outputs)",
             ));
         }
     }
@@ -1455,6 +1470,7 @@ fn fmt_attrs(attrs: &[syn::Attribute], eval: &dyn Fn(&SExpr) -> Result<f64>) -> 
         lsb,
         claim,
         unsaturated,
+        flag,
     })
 }
 

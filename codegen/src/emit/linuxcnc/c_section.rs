@@ -199,8 +199,13 @@ pub(super) fn c_section(plan: &Plan, l: &Layout) -> String {
         let _ = writeln!(
             o,
             "    {h}_raw = qloop_out[{k}];\n    qloop_v = (double)qloop_out[{k}] * \
-             qloop_out_scale[{k}];\n    {h} = qloop_v;",
-            h = out.hal
+             qloop_out_scale[{k}];\n    {h} = {v};",
+            h = out.hal,
+            v = if plan.prog.sig(out.id).flag {
+                "qloop_v > 0.5 /* #[flag]: a bit pin */"
+            } else {
+                "qloop_v"
+            }
         );
         if k == 0 {
             let _ = writeln!(

@@ -196,17 +196,30 @@ fn pins(plan: &Plan, l: &Layout, o: &mut String) {
     );
     for out in &l.outputs {
         let s = p.sig(out.id);
-        let _ = writeln!(
-            o,
-            "pin out float {} {};",
-            out.hal,
-            names::string(&format!(
-                "{}The spec's output {}, range {}.",
-                doc_prefix(&s.docs),
-                s.label(),
-                range(out.id)
-            ))
-        );
+        if s.flag {
+            let _ = writeln!(
+                o,
+                "pin out bit {} {};",
+                out.hal,
+                names::string(&format!(
+                    "{}The spec's output {} (a `#[flag]`): TRUE while its value is above 1/2.",
+                    doc_prefix(&s.docs),
+                    s.label(),
+                ))
+            );
+        } else {
+            let _ = writeln!(
+                o,
+                "pin out float {} {};",
+                out.hal,
+                names::string(&format!(
+                    "{}The spec's output {}, range {}.",
+                    doc_prefix(&s.docs),
+                    s.label(),
+                    range(out.id)
+                ))
+            );
+        }
         let _ = writeln!(
             o,
             "pin out s32 {}_raw {};",
