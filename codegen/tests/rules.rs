@@ -18,9 +18,11 @@ const HOST: &str = r#"controller host {
     const G: 0.25 "(mm/s)/kN";
     const FR: 1.5 "kN";
     RULES
+    /// The output, written after every rule.
+    rule out() on (x, y) { step { y = x; } }
+    apply out on (x = u, y = feed);
     step {
         u += G * (FR - fc);
-        feed = u;
     }
 }
 "#;
@@ -46,7 +48,8 @@ fn a_local_rule_expands_to_the_spec_written_out() {
     apply cap(LIMIT = 3.0) on (cmd = u) as top;"#,
     );
     // By hand: the parameter a constant, every declared name prefixed `top_`, the `pre`
-    // statement first, the `step` statements after the law.
+    // statement first, the `step` statements after the law, in the order of the `apply`
+    // items (`out`, applied after `cap`, writes the output last).
     let by_hand = r#"controller host {
     period 0.1 "s";
     word 16;
@@ -62,10 +65,10 @@ fn a_local_rule_expands_to_the_spec_written_out() {
     step {
         let top_before = u;
         u += G * (FR - fc);
-        feed = u;
         let top_capped = min(u, TOP_LIMIT);
         if top_capped < u { top_hits = top_hits + 1.0; }
         u = max(top_capped, top_before - TOP_LIMIT);
+        feed = u;
     }
     prove { property top_within { ensure next(u) <= TOP_LIMIT; } }
 }
@@ -203,6 +206,48 @@ fn misuses_are_located_errors() {
             ":10:10",
         ),
         (
+            "a name the rule does not declare",
+            "rule r() on (x) { step { x = min(x, fc); } }",
+            "rule `r` uses `fc`, which is not its parameter, its port or declared in it",
+            ":9:41",
+        ),
+        (
+            "a language word declared in a rule",
+            "rule r() on (x) { state next: [0.0, 1.0] = 0.0; }",
+            "`next` is a word of the spec language",
+            ":9:29",
+        ),
+        (
+            "one signal bound to two ports",
+            "rule r() on (x, y) { step { y = x; } }\n    apply r on (x = u, y = u);",
+            "`u` is bound to two ports of rule `r`: `x` and `y`",
+            ":10:28",
+        ),
+        (
+            "a library rule defined again",
+            "rule fmax(L \"mm/s\") on (x) { step { x = min(x, L); } }\n    use feed_safety;",
+            "library `feed_safety` brings rule `fmax`, which is already defined",
+            ":10:9",
+        ),
+        (
+            "a library used twice",
+            "use feed_safety;\n    use feed_safety;",
+            "library `feed_safety` is used twice",
+            ":10:9",
+        ),
+        (
+            "a unit on an argument",
+            "use feed_safety;\n    apply fmax(LIMIT = 4.0 \"mm/s\") on (cmd = u);",
+            "an argument takes no unit",
+            ":10:28",
+        ),
+        (
+            "tuning a rule's default",
+            "use feed_safety;\n    apply backoff(UP = 0.125, LOAD = 2.0, FLOOR = 0.05) on (load = fc, cmd = u);\n    tune BACKOFF_K in {1.0, 2.0};",
+            "`BACKOFF_K` takes its value from a rule parameter's default",
+            ":11:10",
+        ),
+        (
             "syntax",
             "apply fmax(LIMIT 4.0) on (cmd = u);",
             "write `apply NAME(PARAM = VALUE, ..)",
@@ -240,8 +285,8 @@ fn a_flag_is_an_output() {
         "    #[flag]\n    output hold;\n    output feed",
     );
     let ok = ok.replace(
-        "        feed = u;",
-        "        feed = u;\n        hold = 0.0;",
+        "        u += G * (FR - fc);",
+        "        u += G * (FR - fc);\n        hold = 0.0;",
     );
     let plan = compile_str(&ok, &t).unwrap_or_else(|d| panic!("{}", d.render("ok", &ok)));
     let hold = plan
@@ -251,4 +296,53 @@ fn a_flag_is_an_output() {
         .find(|s| s.name == "hold")
         .expect("hold");
     assert!(hold.flag);
+}
+
+#[test]
+fn an_output_computed_before_a_rule_changes_its_source_is_refused() {
+    // The host's step writes `feed` from `u`; `fmax` caps `u` afterwards. Its property holds
+    // on `u`, but `feed` would carry the uncapped value: refused, at the assignment.
+    let t = Target::default();
+    for (name, step, line_col) in [
+        ("directly", "feed = u;", ":14:9"),
+        (
+            "through a let",
+            "let v = 2.0 * u;\n        feed = 0.5 * v;",
+            ":15:9",
+        ),
+        (
+            "through a condition",
+            "if u > 1.0 { feed = 1.0; } else { feed = 0.5; }",
+            ":14:22",
+        ),
+    ] {
+        let src = format!(
+            r#"controller host {{
+    period 0.1 "s";
+    word 16;
+    input fc: [0.0, 5.0] "kN";
+    state u: [0.05, 5.0] "mm/s" = 0.5;
+    output feed "mm/s";
+    const G: 0.25 "(mm/s)/kN";
+    const FR: 1.5 "kN";
+    use feed_safety;
+    apply fmax(LIMIT = 4.0) on (cmd = u);
+    step {{
+        u += G * (FR - fc);
+        // the output
+        {step}
+    }}
+}}
+"#
+        );
+        let Err(d) = compile_str(&src, &t) else {
+            panic!("{name}: compiled")
+        };
+        let err = d.render("x.qloop", &src);
+        assert!(
+            err.contains("output `feed` is computed from `u` before a rule changes `u`"),
+            "{name}: {err}"
+        );
+        assert!(err.contains(line_col), "{name}: want {line_col} in {err}");
+    }
 }

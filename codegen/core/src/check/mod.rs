@@ -51,6 +51,7 @@ pub fn check(ast: &SpecAst) -> Result<Program> {
         let_elems: x.let_elems,
         generated,
         recip_sites: x.recips,
+        rule_defaults: x.rule_defaults,
         ..Checker::default()
     }
     .run(&x.ast)
@@ -90,6 +91,8 @@ struct Checker {
     writes: HashMap<SigId, usize>,
     /// The span of each constant's value expression (for `tune`).
     const_value_spans: HashMap<String, Span>,
+    /// Constants valued by a rule parameter's default: not tunable (their text is the rule's).
+    rule_defaults: std::collections::HashSet<String>,
 }
 
 impl Checker {

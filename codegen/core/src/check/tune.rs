@@ -32,6 +32,16 @@ impl Checker {
                     .help("`tune` gives candidates for a declared `param` or `const`"))
                 }
             };
+            if self.rule_defaults.contains(&name) {
+                return Err(Diag::new(
+                    t.name.span(),
+                    format!("`{name}` takes its value from a rule parameter's default"),
+                )
+                .label("a rule's default")
+                .help(
+                    "give the parameter a value in the `apply` item (`PARAM = VALUE`) to tune it",
+                ));
+            }
             if out.iter().any(|o| o.name == name) {
                 return Err(Diag::new(t.name.span(), format!("`{name}` is tuned twice"))
                     .help("give all its candidates in one `tune` item"));

@@ -80,6 +80,8 @@ pub struct Expanded {
     pub let_elems: HashMap<String, Elem>,
     /// The `newton_recip` sites, in order.
     pub recips: Vec<RecipSite>,
+    /// The constants valued by a rule parameter's default (see [`super::rules`]).
+    pub rule_defaults: HashSet<String>,
 }
 
 /// One `newton_recip(d, [LO, HI], K)` of the step.
@@ -112,7 +114,8 @@ const NEWTON_MARGIN: f64 = 1.0 / 256.0;
 
 /// Rewrites `ast` so that every signal, `let` and expression is a scalar.
 pub fn expand(ast: &SpecAst) -> Result<Expanded> {
-    let ast = &super::rules::instantiate(ast)?;
+    let inst = super::rules::instantiate(ast)?;
+    let ast = &inst.ast;
     let mut x = Expander::default();
     let mut items = Vec::with_capacity(ast.items.len());
     for item in &ast.items {
@@ -157,6 +160,7 @@ pub fn expand(ast: &SpecAst) -> Result<Expanded> {
         },
         let_elems: x.let_elems,
         recips: x.recips,
+        rule_defaults: inst.defaults,
     })
 }
 

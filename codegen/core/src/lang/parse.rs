@@ -192,6 +192,12 @@ fn parse_item(input: ParseStream) -> syn::Result<Item> {
         a.docs = doc_lines(&attrs);
         Ok(Item::Apply(Box::new(a)))
     } else if la.peek(Token![use]) {
+        if let Some(a) = attrs.iter().find(|a| !a.path().is_ident("doc")) {
+            return Err(syn::Error::new_spanned(
+                a,
+                "only doc comments may stand on a `use` item",
+            ));
+        }
         input.parse::<Token![use]>()?;
         if input.peek(LitStr) {
             let lit: LitStr = input.parse()?;
@@ -333,8 +339,16 @@ fn parse_apply(input: ParseStream) -> syn::Result<ApplyDecl> {
                 .parse::<Token![=]>()
                 .map_err(|e| syn::Error::new(e.span(), APPLY_HELP))?;
             args.push((name, parse_arg(&content)?));
+            if content.peek(LitStr) {
+                return Err(content.error(
+                    "an argument takes no unit: the rule's parameter declares it (a value in \
+                     another unit: `convert(..)` is not available here, write it in that unit)",
+                ));
+            }
             if !content.is_empty() {
-                content.parse::<Token![,]>()?;
+                content
+                    .parse::<Token![,]>()
+                    .map_err(|e| syn::Error::new(e.span(), APPLY_HELP))?;
             }
         }
     }

@@ -48,25 +48,51 @@ pub fn library_rules(name: &str) -> Option<Result<Vec<RuleDef>>> {
     library(name).map(parse_rule_file)
 }
 
+/// A spec with its rules applied.
+pub struct Instantiated {
+    /// The spec without `rule`, `apply` and `use` items.
+    pub ast: SpecAst,
+    /// The constants made from a rule parameter's default (not from an `apply` argument):
+    /// their value's text is the rule's, so `qloop tune` may not rewrite it.
+    pub defaults: HashSet<String>,
+}
+
 /// Expands every `apply` of `ast` and drops its `rule` and `use` items.
-pub fn instantiate(ast: &SpecAst) -> Result<SpecAst> {
+pub fn instantiate(ast: &SpecAst) -> Result<Instantiated> {
     let mut rules: HashMap<String, RuleDef> = HashMap::new();
-    let add = |r: RuleDef, rules: &mut HashMap<String, RuleDef>| -> Result<()> {
+    // A rule defined twice: at the second definition in the spec, or at the `use` that
+    // brought the second (a library rule's own spans are not the spec's).
+    let add = |r: RuleDef,
+               at: Option<&proc_macro2::Ident>,
+               rules: &mut HashMap<String, RuleDef>|
+     -> Result<()> {
         let key = r.name.to_string();
         if rules.contains_key(&key) {
-            return Err(
-                Diag::new(r.name.span(), format!("rule `{key}` is defined twice"))
+            return Err(match at {
+                None => Diag::new(r.name.span(), format!("rule `{key}` is defined twice"))
                     .help("rename one of them"),
-            );
+                Some(lib) => Diag::new(
+                    lib.span(),
+                    format!("library `{lib}` brings rule `{key}`, which is already defined"),
+                )
+                .help("rename the spec's own rule, or write the `use` once"),
+            });
         }
         check_def(&r)?;
         rules.insert(key, r);
         Ok(())
     };
+    let mut used: HashSet<String> = HashSet::new();
     for item in &ast.items {
         match item {
-            Item::Rule(r) => add((**r).clone(), &mut rules)?,
+            Item::Rule(r) => add((**r).clone(), None, &mut rules)?,
             Item::Use { name } => {
+                if !used.insert(name.to_string()) {
+                    return Err(
+                        Diag::new(name.span(), format!("library `{name}` is used twice"))
+                            .help("write the `use` once"),
+                    );
+                }
                 let lib = library_rules(&name.to_string()).ok_or_else(|| {
                     Diag::new(name.span(), format!("unknown rules library `{name}`")).help(format!(
                         "qloop ships {}; `qloop rules` prints them",
@@ -89,7 +115,7 @@ pub fn instantiate(ast: &SpecAst) -> Result<SpecAst> {
                     )
                 })?;
                 for r in lib {
-                    add(r, &mut rules)?;
+                    add(r, Some(name), &mut rules)?;
                 }
             }
             _ => {}
@@ -111,6 +137,7 @@ pub fn instantiate(ast: &SpecAst) -> Result<SpecAst> {
     let (mut pre, mut post, mut props) = (Vec::new(), Vec::new(), Vec::new());
     let mut instances: HashMap<String, Span> = HashMap::new();
     let mut step_at = None;
+    let mut defaults = HashSet::new();
     for item in &ast.items {
         match item {
             Item::Rule(_) | Item::Use { .. } => {}
@@ -139,6 +166,7 @@ pub fn instantiate(ast: &SpecAst) -> Result<SpecAst> {
                 }
                 let x = instance(rule, a, &units)?;
                 items.extend(x.items);
+                defaults.extend(x.defaults);
                 pre.extend(x.pre);
                 post.extend(x.post);
                 props.extend(x.props);
@@ -153,6 +181,7 @@ pub fn instantiate(ast: &SpecAst) -> Result<SpecAst> {
     if let Some(i) = step_at {
         if let Item::Step(b) = &mut items[i] {
             if !pre.is_empty() || !post.is_empty() {
+                stale_outputs(ast, &b.stmts, &post)?;
                 let mut stmts = pre;
                 stmts.extend(b.stmts.drain(..).map(terminated));
                 stmts.extend(post);
@@ -166,11 +195,162 @@ pub fn instantiate(ast: &SpecAst) -> Result<SpecAst> {
             span: Span::call_site(),
         });
     }
-    Ok(SpecAst {
-        docs: ast.docs.clone(),
-        name: ast.name.clone(),
-        items,
+    Ok(Instantiated {
+        ast: SpecAst {
+            docs: ast.docs.clone(),
+            name: ast.name.clone(),
+            items,
+        },
+        defaults,
     })
+}
+
+/// Refuses an output the host's step computes from a signal a rule writes afterwards: the
+/// output would carry the value from before the rule (a feed above FMAX, say), while the
+/// rule's property, proved on the signal, holds.
+fn stale_outputs(ast: &SpecAst, host: &[syn::Stmt], post: &[syn::Stmt]) -> Result<()> {
+    let outputs: HashSet<String> = ast
+        .items
+        .iter()
+        .filter_map(|i| match i {
+            Item::Signal(s) if s.kind == SignalKw::Output => Some(s.name.to_string()),
+            _ => None,
+        })
+        .collect();
+    let mut written = HashSet::new();
+    for st in post {
+        writes(st, &mut written);
+    }
+    let mut tainted: HashMap<String, String> =
+        written.iter().map(|w| (w.clone(), w.clone())).collect();
+    for st in host {
+        stale_stmt(st, &outputs, &mut tainted, None)?;
+    }
+    Ok(())
+}
+
+/// The names assigned (`=`, `+=`, `-=`) anywhere in `st`.
+fn writes(st: &syn::Stmt, out: &mut HashSet<String>) {
+    struct W<'a>(&'a mut HashSet<String>);
+    impl<'ast> syn::visit::Visit<'ast> for W<'_> {
+        fn visit_expr_assign(&mut self, e: &'ast syn::ExprAssign) {
+            if let syn::Expr::Path(p) = &*e.left {
+                if let Some(i) = p.path.get_ident() {
+                    self.0.insert(i.to_string());
+                }
+            }
+            syn::visit::visit_expr_assign(self, e);
+        }
+        fn visit_expr_binary(&mut self, e: &'ast syn::ExprBinary) {
+            if matches!(e.op, syn::BinOp::AddAssign(_) | syn::BinOp::SubAssign(_)) {
+                if let syn::Expr::Path(p) = &*e.left {
+                    if let Some(i) = p.path.get_ident() {
+                        self.0.insert(i.to_string());
+                    }
+                }
+            }
+            syn::visit::visit_expr_binary(self, e);
+        }
+    }
+    syn::visit::Visit::visit_stmt(&mut W(out), st);
+}
+
+/// The first name of `tainted` that `e` reads, with the rule-written signal behind it.
+fn reads_tainted(e: &syn::Expr, tainted: &HashMap<String, String>) -> Option<String> {
+    struct R<'a>(&'a HashMap<String, String>, Option<String>);
+    impl<'ast> syn::visit::Visit<'ast> for R<'_> {
+        fn visit_expr_path(&mut self, p: &'ast syn::ExprPath) {
+            if let Some(i) = p.path.get_ident() {
+                if let Some(src) = self.0.get(&i.to_string()) {
+                    self.1.get_or_insert(src.clone());
+                }
+            }
+        }
+    }
+    let mut r = R(tainted, None);
+    syn::visit::Visit::visit_expr(&mut r, e);
+    r.1
+}
+
+/// [`stale_outputs`] for one statement; `cond` is the tainted signal an enclosing `if`'s
+/// condition reads, if any.
+fn stale_stmt(
+    st: &syn::Stmt,
+    outputs: &HashSet<String>,
+    tainted: &mut HashMap<String, String>,
+    cond: Option<&String>,
+) -> Result<()> {
+    use syn::spanned::Spanned;
+    match st {
+        syn::Stmt::Local(l) => {
+            if let (syn::Pat::Ident(pi), Some(init)) = (&l.pat, &l.init) {
+                if let Some(src) = reads_tainted(&init.expr, tainted).or(cond.cloned()) {
+                    tainted.insert(pi.ident.to_string(), src);
+                }
+            }
+            Ok(())
+        }
+        syn::Stmt::Expr(e, _) => stale_expr(e, outputs, tainted, cond, e.span()),
+        _ => Ok(()),
+    }
+}
+
+fn stale_expr(
+    e: &syn::Expr,
+    outputs: &HashSet<String>,
+    tainted: &mut HashMap<String, String>,
+    cond: Option<&String>,
+    span: Span,
+) -> Result<()> {
+    let (target, value) = match e {
+        syn::Expr::Assign(a) => (&*a.left, &*a.right),
+        syn::Expr::Binary(b)
+            if matches!(b.op, syn::BinOp::AddAssign(_) | syn::BinOp::SubAssign(_)) =>
+        {
+            (&*b.left, &*b.right)
+        }
+        syn::Expr::If(i) => {
+            let c = reads_tainted(&i.cond, tainted).or(cond.cloned());
+            for st in &i.then_branch.stmts {
+                stale_stmt(st, outputs, tainted, c.as_ref())?;
+            }
+            if let Some((_, els)) = &i.else_branch {
+                stale_expr(els, outputs, tainted, c.as_ref(), span)?;
+            }
+            return Ok(());
+        }
+        syn::Expr::Block(b) => {
+            for st in &b.block.stmts {
+                stale_stmt(st, outputs, tainted, cond)?;
+            }
+            return Ok(());
+        }
+        _ => return Ok(()),
+    };
+    let syn::Expr::Path(p) = target else {
+        return Ok(());
+    };
+    let Some(name) = p.path.get_ident().map(|i| i.to_string()) else {
+        return Ok(());
+    };
+    if !outputs.contains(&name) {
+        return Ok(());
+    }
+    if let Some(src) = reads_tainted(value, tainted).or(cond.cloned()) {
+        return Err(Diag::new(
+            span,
+            format!(
+                "output `{name}` is computed from `{src}` before a rule changes `{src}`: it \
+                 would carry the value from before the rule"
+            ),
+        )
+        .help(format!(
+            "let a rule write the output after the others (qloop's `feed_hold`, or your own \
+             `rule out() on (x, y) {{ step {{ y = x; }} }}` applied last), or compute `{name}` \
+             from signals no rule writes"
+        )));
+    }
+    Ok(())
 }
 
 /// `e` as a statement with its `;`, so that statements can follow it.
@@ -187,6 +367,7 @@ fn terminated(s: syn::Stmt) -> syn::Stmt {
 /// What one instance adds to the host.
 struct Instance {
     items: Vec<Item>,
+    defaults: Vec<String>,
     pre: Vec<syn::Stmt>,
     post: Vec<syn::Stmt>,
     props: Vec<PropItem>,
@@ -219,7 +400,39 @@ fn check_def(r: &RuleDef) -> Result<()> {
             ));
         }
     }
-    for n in declared(&r.body) {
+    let declared = declared(&r.body);
+    for n in r.params.iter().map(|p| &p.name).chain(&declared) {
+        if LANGUAGE.contains(&n.to_string().as_str()) {
+            return Err(Diag::new(
+                n.span(),
+                format!("`{n}` is a word of the spec language and cannot be declared in a rule"),
+            )
+            .help("choose another name"));
+        }
+    }
+    let mut used = Vec::new();
+    idents(&r.body, &mut used);
+    for i in used {
+        let s = i.to_string();
+        let known = LANGUAGE.contains(&s.as_str())
+            || r.ports.contains(&i)
+            || r.params.iter().any(|p| p.name == i)
+            || declared.contains(&i);
+        if !known {
+            return Err(Diag::new(
+                i.span(),
+                format!(
+                    "rule `{}` uses `{s}`, which is not its parameter, its port or declared in it",
+                    r.name
+                ),
+            )
+            .help(format!(
+                "a rule reads the spec only through its ports: add `{s}` to `on (..)` and bind \
+                 it in each `apply`, or make it a parameter"
+            )));
+        }
+    }
+    for n in declared {
         if r.ports.contains(&n) {
             return Err(Diag::new(
                 n.span(),
@@ -255,7 +468,7 @@ fn forbidden(it: &RuleItem) -> Option<Span> {
 /// The names a rule's body declares: the identifier after `const`, `param`, `state`,
 /// `output`, `table`, `let`, `invariant`, `property` and `forall`.
 fn declared(body: &TokenStream) -> Vec<proc_macro2::Ident> {
-    const KEYWORDS: [&str; 9] = [
+    const KEYWORDS: [&str; 10] = [
         "const",
         "param",
         "state",
@@ -265,9 +478,12 @@ fn declared(body: &TokenStream) -> Vec<proc_macro2::Ident> {
         "invariant",
         "property",
         "forall",
+        "for",
     ];
     let mut out: Vec<proc_macro2::Ident> = Vec::new();
     let mut after_kw = false;
+    // `table NAME(x: ..)`: the variable is the first identifier of the group after the name.
+    let (mut table_name_next, mut table_group_next) = (false, false);
     for tt in body.clone() {
         match tt {
             TokenTree::Ident(i) => {
@@ -279,20 +495,104 @@ fn declared(body: &TokenStream) -> Vec<proc_macro2::Ident> {
                 if after_kw && !out.contains(&i) {
                     out.push(i);
                 }
+                table_group_next = table_name_next;
+                table_name_next = s == "table";
                 after_kw = KEYWORDS.contains(&s.as_str());
             }
             TokenTree::Group(g) => {
                 after_kw = false;
+                if table_group_next {
+                    if let Some(TokenTree::Ident(v)) = g.stream().into_iter().next() {
+                        if !out.contains(&v) {
+                            out.push(v);
+                        }
+                    }
+                }
+                table_group_next = false;
+                table_name_next = false;
                 for n in declared(&g.stream()) {
                     if !out.contains(&n) {
                         out.push(n);
                     }
                 }
             }
-            _ => after_kw = false,
+            _ => {
+                after_kw = false;
+                table_name_next = false;
+                table_group_next = false;
+            }
         }
     }
     out
+}
+
+/// The words a rule's body may use besides its parameters, ports and declared names: the
+/// spec language's keywords, functions, attributes and integer types. A rule may not declare
+/// these, and any other name is an error (a rule reads the host only through its ports).
+const LANGUAGE: &[&str] = &[
+    "const",
+    "param",
+    "state",
+    "output",
+    "table",
+    "let",
+    "mut",
+    "if",
+    "else",
+    "for",
+    "in",
+    "pre",
+    "step",
+    "prove",
+    "invariant",
+    "property",
+    "forall",
+    "assume",
+    "ensure",
+    "next",
+    "true",
+    "false",
+    "doc",
+    "q",
+    "lsb",
+    "range",
+    "unsaturated",
+    "flag",
+    "error",
+    "min",
+    "max",
+    "clamp",
+    "abs",
+    "convert",
+    "sum",
+    "dot",
+    "det",
+    "newton_recip",
+    "recip_track",
+    "exp",
+    "ln",
+    "sqrt",
+    "powf",
+    "period",
+    "i8",
+    "i16",
+    "i32",
+    "i64",
+    "u8",
+    "u16",
+    "u32",
+    "u64",
+];
+
+/// Every identifier of `body` (recursively) with its span.
+fn idents(body: &TokenStream, out: &mut Vec<proc_macro2::Ident>) {
+    for tt in body.clone() {
+        match tt {
+            TokenTree::Ident(i) => out.push(i),
+            TokenTree::Group(g) => idents(&g.stream(), out),
+            _ => {}
+        }
+    }
 }
 
 /// The instance's name for a name `n` the rule declares: `inst_n`, upper case if `n` is.
@@ -361,7 +661,11 @@ impl Rewrite<'_> {
                 }
                 TokenTree::Literal(l) => {
                     let text = l.to_string();
-                    let mut l = match text.strip_prefix("\"@").and_then(|t| t.strip_suffix('"')) {
+                    let port = text
+                        .strip_prefix("\"@")
+                        .and_then(|t| t.strip_suffix('"'))
+                        .filter(|p| self.rule.ports.iter().any(|q| q == p));
+                    let mut l = match port {
                         Some(port) => {
                             let u = self.unit(&format!("@{port}"), l.span())?;
                             proc_macro2::Literal::string(&u)
@@ -421,6 +725,16 @@ fn instance(rule: &RuleDef, a: &ApplyDecl, units: &HashMap<String, String>) -> R
             )),
             );
         }
+        if let Some((q, _)) = ports.iter().find(|(_, t)| **t == s) {
+            return Err(Diag::new(
+                s.span(),
+                format!(
+                    "`{s}` is bound to two ports of rule `{}`: `{q}` and `{p}`",
+                    rule.name
+                ),
+            )
+            .help("each port needs a signal of its own"));
+        }
         if ports.insert(p.to_string(), s).is_some() {
             return Err(Diag::new(p.span(), format!("port `{p}` is bound twice")));
         }
@@ -462,10 +776,12 @@ fn instance(rule: &RuleDef, a: &ApplyDecl, units: &HashMap<String, String>) -> R
             .insert(n.to_string(), (prefixed(&inst, &n.to_string()), None));
     }
     let mut items = Vec::new();
+    let mut defaults = Vec::new();
     for p in &rule.params {
         let value = match (args.get(&p.name.to_string()), &p.default) {
             (Some(v), _) => (*v).clone(),
             (None, Some(d)) => {
+                defaults.push(prefixed(&inst, &p.name.to_string()));
                 let toks = rw.tokens(&quote::ToTokens::to_token_stream(d))?;
                 syn::parse2(toks).map_err(Diag::from)?
             }
@@ -520,6 +836,7 @@ fn instance(rule: &RuleDef, a: &ApplyDecl, units: &HashMap<String, String>) -> R
     }
     Ok(Instance {
         items,
+        defaults,
         pre,
         post,
         props,
