@@ -129,6 +129,18 @@ fn top_level_usage() {
         2,
         &["unexpected argument 'extra'"],
     );
+    expect(
+        "rules: unknown name",
+        &run(&["rules", "nope"], &[]),
+        2,
+        &["no rules library or rule named `nope`"],
+    );
+    expect_stdout(
+        "rules: one rule",
+        &run(&["rules", "fmax"], &[]),
+        0,
+        &["rule fmax(LIMIT \"@cmd\") on (cmd)"],
+    );
 }
 
 #[test]
