@@ -8,19 +8,33 @@
 use qloop_plant::turning::{fault_scenarios, Turning, TurningParams};
 use qloop_plant::{fixed_controller, reference_controller, run, RunConfig, Trace};
 
-fn faulted(name: &str) -> Trace {
+/// The fault scenario `name` run with a controller and its f64 reference.
+fn run_fault(
+    name: &str,
+    fixed: Box<dyn qloop_plant::Controller>,
+    reference: Box<dyn qloop_plant::Controller>,
+) -> Trace {
     let sc = fault_scenarios()
         .into_iter()
         .find(|s| s.name == name)
         .unwrap();
     run(
         &Turning::new(TurningParams::default()),
-        fixed_controller!(qloop_verified::koren_masory_tuned),
-        reference_controller!(qloop_verified::koren_masory_tuned_ref, 0.1),
+        fixed,
+        reference,
         &sc,
         RunConfig::default(),
     )
     .unwrap()
+}
+
+/// The tuned controller, without rules.
+fn faulted(name: &str) -> Trace {
+    run_fault(
+        name,
+        fixed_controller!(qloop_verified::koren_masory_tuned),
+        reference_controller!(qloop_verified::koren_masory_tuned_ref, 0.1),
+    )
 }
 
 /// The values of column `c` at times in `[t0, t1)`.
@@ -95,18 +109,11 @@ const N_UNKNOWN: f64 = 10.0;
 const PERIOD: f64 = 0.1;
 
 fn safe(name: &str) -> Trace {
-    let sc = fault_scenarios()
-        .into_iter()
-        .find(|s| s.name == name)
-        .unwrap();
-    run(
-        &Turning::new(TurningParams::default()),
+    run_fault(
+        name,
         fixed_controller!(qloop_verified::koren_masory_safe),
         reference_controller!(qloop_verified::koren_masory_safe_ref, 0.1),
-        &sc,
-        RunConfig::default(),
     )
-    .unwrap()
 }
 
 /// The first time the feed hold is set, if it is.

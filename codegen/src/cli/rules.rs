@@ -1,7 +1,7 @@
 //! `qloop rules`: the safety-rule libraries a spec can `use`.
 
 use super::error::{CliError, CliResult};
-use qloop_core::lang::rules::{library_rules, LIBRARIES};
+use qloop_core::lang::rules::{library_names, library_rules, LIBRARIES};
 
 /// Prints the text of every library, of one library, or of one rule (by name).
 pub fn run(name: Option<&str>) -> CliResult {
@@ -35,11 +35,7 @@ pub fn run(name: Option<&str>) -> CliResult {
         msg: format!("no rules library or rule named `{name}`"),
         help: Some(format!(
             "the libraries are {}; `qloop rules` prints them all",
-            LIBRARIES
-                .iter()
-                .map(|(l, _)| format!("`{l}`"))
-                .collect::<Vec<_>>()
-                .join(", ")
+            library_names()
         )),
     })
 }

@@ -38,6 +38,15 @@ use std::collections::{HashMap, HashSet};
 pub const LIBRARIES: [(&str, &str); 1] =
     [("feed_safety", include_str!("../../rules/feed_safety.qloop"))];
 
+/// The names of qloop's rule libraries, for messages: `` `feed_safety` ``.
+pub fn library_names() -> String {
+    LIBRARIES
+        .iter()
+        .map(|(n, _)| format!("`{n}`"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// The text of the rule library `name`, if qloop ships one.
 pub fn library(name: &str) -> Option<&'static str> {
     LIBRARIES.iter().find(|(n, _)| *n == name).map(|(_, t)| *t)
@@ -96,11 +105,7 @@ pub fn instantiate(ast: &SpecAst) -> Result<Instantiated> {
                 let lib = library_rules(&name.to_string()).ok_or_else(|| {
                     Diag::new(name.span(), format!("unknown rules library `{name}`")).help(format!(
                         "qloop ships {}; `qloop rules` prints them",
-                        LIBRARIES
-                            .iter()
-                            .map(|(n, _)| format!("`{n}`"))
-                            .collect::<Vec<_>>()
-                            .join(", ")
+                        library_names()
                     ))
                 })?;
                 // The library's own text is qloop's: a parse error in it is a bug, shown at
@@ -234,25 +239,25 @@ fn writes(st: &syn::Stmt, out: &mut HashSet<String>) {
     struct W<'a>(&'a mut HashSet<String>);
     impl<'ast> syn::visit::Visit<'ast> for W<'_> {
         fn visit_expr_assign(&mut self, e: &'ast syn::ExprAssign) {
-            if let syn::Expr::Path(p) = &*e.left {
-                if let Some(i) = p.path.get_ident() {
-                    self.0.insert(i.to_string());
-                }
-            }
+            self.0.extend(target_name(&e.left));
             syn::visit::visit_expr_assign(self, e);
         }
         fn visit_expr_binary(&mut self, e: &'ast syn::ExprBinary) {
             if matches!(e.op, syn::BinOp::AddAssign(_) | syn::BinOp::SubAssign(_)) {
-                if let syn::Expr::Path(p) = &*e.left {
-                    if let Some(i) = p.path.get_ident() {
-                        self.0.insert(i.to_string());
-                    }
-                }
+                self.0.extend(target_name(&e.left));
             }
             syn::visit::visit_expr_binary(self, e);
         }
     }
     syn::visit::Visit::visit_stmt(&mut W(out), st);
+}
+
+/// The plain name an assignment writes (`x` in `x = ..`), if it is one.
+fn target_name(e: &syn::Expr) -> Option<String> {
+    match e {
+        syn::Expr::Path(p) => p.path.get_ident().map(|i| i.to_string()),
+        _ => None,
+    }
 }
 
 /// The first name of `tainted` that `e` reads, with the rule-written signal behind it.
@@ -327,10 +332,7 @@ fn stale_expr(
         }
         _ => return Ok(()),
     };
-    let syn::Expr::Path(p) = target else {
-        return Ok(());
-    };
-    let Some(name) = p.path.get_ident().map(|i| i.to_string()) else {
+    let Some(name) = target_name(target) else {
         return Ok(());
     };
     if !outputs.contains(&name) {
