@@ -144,6 +144,45 @@ fn top_level_usage() {
 }
 
 #[test]
+fn aco_failures() {
+    let d = scratch("aco");
+    let out = s(&d.join("out"));
+    expect(
+        "aco: confidence outside [0, 1]",
+        &run(&["aco", "--c", "1.5", "--out", &out], &[]),
+        2,
+        &["--c 1.5 is outside [0, 1]", "help: c is 001 eq. 13"],
+    );
+    expect(
+        "aco: no cycles",
+        &run(&["aco", "--cycles", "0", "--out", &out], &[]),
+        2,
+        &["--cycles 0 is outside 1..=1000"],
+    );
+    expect(
+        "aco: output under a regular file",
+        &run(
+            &["aco", "--runs", "0", "--out", &s(&d.join("file/out"))],
+            &[],
+        ),
+        2,
+        &["cannot create"],
+    );
+    expect_stdout(
+        "aco: done",
+        &run(
+            &["aco", "--runs", "3", "--study-cycles", "4", "--out", &out],
+            &[],
+        ),
+        0,
+        &["001  Tab.2", "3 seeded runs of 4 cycles"],
+    );
+    for f in ["rcb2.txt", "rcb2-run.csv", "rcb2-run.png", "rcb2-study.svg"] {
+        assert!(d.join("out").join(f).is_file(), "{f}");
+    }
+}
+
+#[test]
 fn c2d_failures() {
     let plant = [
         "c2d", "--num", "-3,150", "--den", "1,20,550", "--period", "0.0839",

@@ -39,3 +39,8 @@ echo "docs/figures/paper-vs-tuned-depth-steps.{svg,png,txt}"
 # that asserts the comparison (the specs are in tests/ until the full design's proof lands).
 QLOOP_FIGURES="$PWD/docs/figures" cargo test -q -p qloop-tests --test paper_multimodel -- --exact figure >/dev/null
 echo "docs/figures/milling-multimodel-comparison.{svg,png,txt}"
+# RCB2 above the loops (issue 19, 001): a seeded run beside 001's Table 2, and the study of
+# confidence levels against the nominal optimiser over 100 seeded runs (001 Figs. 5 and 6).
+./target/release/qloop aco --out "$tmp/aco" >/dev/null
+for f in rcb2-run.svg rcb2-run.png rcb2-study.svg rcb2-study.png rcb2.txt; do cp "$tmp/aco/$f" docs/figures/; done
+echo "docs/figures/rcb2-{run,study}.{svg,png}, docs/figures/rcb2.txt"

@@ -58,11 +58,16 @@ pub struct Panel {
 pub struct Figure {
     /// Title on top.
     pub title: String,
-    /// Time base in seconds.
+    /// The shared x axis: time in seconds for a run, or a cycle number.
     pub t: Vec<f64>,
+    /// The x axis's label, e.g. `t (s)` (see [`TIME_AXIS`]) or `cycle`.
+    pub x_label: String,
     /// Panels, top to bottom.
     pub panels: Vec<Panel>,
 }
+
+/// The x label of a figure over time.
+pub const TIME_AXIS: &str = "t (s)";
 
 /// Width of a figure in pixels.
 pub const WIDTH: u32 = 1000;
@@ -160,6 +165,7 @@ pub fn run_figure(
     Figure {
         title: title.to_string(),
         t,
+        x_label: TIME_AXIS.into(),
         panels,
     }
 }
@@ -245,7 +251,7 @@ where
         mesh.light_line_style(RGBColor(245, 245, 245))
             .label_style(("sans-serif", 12));
         if i + 1 == fig.panels.len() {
-            mesh.x_desc("t (s)");
+            mesh.x_desc(fig.x_label.as_str());
         }
         mesh.draw().map_err(err)?;
         for s in &p.series {
@@ -331,6 +337,7 @@ mod tests {
         let t: Vec<f64> = (0..50).map(|k| k as f64 * 0.1).collect();
         Figure {
             title: "test".into(),
+            x_label: TIME_AXIS.into(),
             panels: vec![Panel {
                 title: "x (kN)".into(),
                 series: vec![

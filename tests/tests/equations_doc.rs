@@ -14,7 +14,8 @@ fn code_spans(doc: &str) -> Vec<&str> {
     doc.split('`').skip(1).step_by(2).collect()
 }
 
-const DIRS: [&str; 6] = [
+const DIRS: [&str; 7] = [
+    "aco/",
     "codegen/",
     "plant/",
     "tests/",

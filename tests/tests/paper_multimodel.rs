@@ -23,7 +23,7 @@
 //! does so for `docs/figures`, and CI checks that the committed summary still matches.
 
 use qloop_plant::milling::{scenario_named, Milling, MillingParams, FIG1_PROFILE};
-use qloop_plant::plot::{write_png, write_svg, Figure, Line, Panel, Series};
+use qloop_plant::plot::{self, write_png, write_svg, Figure, Line, Panel, Series};
 use qloop_plant::{
     fixed_controller, metrics, reference_controller, run, Controller, Metrics, RunConfig, Scenario,
     Trace,
@@ -380,6 +380,7 @@ fn figure() {
         title: "003, milling, Fig. 1 depth profile: switching vs ZOH only vs a fixed β = 0.5 hold vs the 1981 law"
             .into(),
         t: t.clone(),
+        x_label: plot::TIME_AXIS.into(),
         panels: vec![
             Panel {
                 title: "measured force fc (kN)".into(),

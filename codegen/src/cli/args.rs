@@ -320,6 +320,33 @@ pub enum Cmd {
         #[arg(long, default_value = "H")]
         name: String,
     },
+    /// Optimisation above the loops, on the host in f64: RCB2, the cycle-to-cycle constraint
+    /// bounding of 001 (Ivester & Danai), on its turning model (reconstructed).
+    ///
+    /// Runs one scenario (10 % model bias, noise in [0.9, 1.1]) and prints it beside 001's
+    /// Table 2, then runs a seeded study of confidence levels 0.1, 0.5 and 0.9 against the
+    /// nominal optimiser without buffers (001, Figs. 5 and 6). Writes the table, CSV files and
+    /// plots to the output directory.
+    Aco {
+        /// Confidence level c of 001 eq. 13 for both constraints, in [0, 1].
+        #[arg(long, default_value_t = 0.5)]
+        c: f64,
+        /// Seed of the printed run; the study's runs use seeds seed, seed+1, ...
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Cycles (parts) of the printed run.
+        #[arg(long, default_value_t = 10)]
+        cycles: usize,
+        /// Seeded runs per policy in the study (0 skips the study).
+        #[arg(long, default_value_t = 100)]
+        runs: usize,
+        /// Cycles per run in the study.
+        #[arg(long, default_value_t = 20)]
+        study_cycles: usize,
+        /// Output directory.
+        #[arg(long, default_value = "qloop-aco")]
+        out: PathBuf,
+    },
     /// List the built-in cost-model targets.
     Targets,
     /// qloop's safety-rule libraries (`use feed_safety;` in a spec): every rule with its

@@ -137,6 +137,7 @@ pub fn comparison(paper: &SimResult, tuned: &SimResult) -> (Figure, String) {
     let fig = Figure {
         title: "Koren–Masory (1981) on the turning plant, depth steps: paper tuning (K = 1.25) against qloop tune (K = 0.2)".into(),
         t,
+        x_label: plot::TIME_AXIS.into(),
         panels: vec![
             Panel {
                 title: "fc (kN)".into(),

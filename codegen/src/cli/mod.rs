@@ -16,6 +16,7 @@
 //! | `targets` | [`targets`] |
 //! | `plants` | [`plants`] (the plant contracts; `sim` binds a spec to one: [`bind`]) |
 
+pub mod aco;
 pub mod args;
 pub mod bench;
 pub mod bind;

@@ -1,0 +1,210 @@
+//! Text and CSV reports of RCB₂ runs and studies.
+
+use crate::paper::TABLE2;
+use crate::rcb::Run;
+use crate::study::{Study, CONVERGED};
+use crate::turning::LIMITS;
+use std::fmt::Write;
+
+/// One run as 001's Table 2, with the paper's rows beside it (where it has one).
+pub fn run_table(run: &Run) -> String {
+    let sc = &run.scenario;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "RCB2 on the reconstructed turning model of 001: {}, seed {}, bias ±{:.0} %, noise [{}, {}]",
+        sc.policy.name(),
+        sc.seed,
+        100.0 * sc.bias,
+        1.0 - sc.noise,
+        1.0 + sc.noise
+    );
+    let _ = writeln!(
+        s,
+        "measured = true model x noise; limits: power {} kW, roughness {} um",
+        LIMITS[0], LIMITS[1]
+    );
+    let _ = writeln!(
+        s,
+        "{:>5} | {:>7} {:>6} {:>6} {:>6} {:>7} {:>6} {:>6} | {:>7} {:>6} {:>5} {:>5} {:>6}",
+        "", "qloop", "", "P", "Ra", "t", "b1", "b2", "001", "Tab.2", "g_m1", "g_m2", "t"
+    );
+    let _ = writeln!(
+        s,
+        "{:>5} | {:>7} {:>6} {:>6} {:>6} {:>7} {:>6} {:>6} | {:>7} {:>6} {:>5} {:>5} {:>6}",
+        "cycle", "v", "f", "kW", "um", "s", "", "", "v", "f", "", "", "s"
+    );
+    for c in &run.cycles {
+        let b = c
+            .buffers
+            .map(|b| format!("{:>6.2} {:>6.2}", b[0], b[1]))
+            .unwrap_or_else(|| format!("{:>6} {:>6}", "-", "-"));
+        let flag = if c.excess() > 0.0 { "!" } else { " " };
+        let _ = write!(
+            s,
+            "{:>5} | {:>7.2} {:>6.3} {:>6.2} {:>6.2} {:>7.1} {b} |",
+            c.index, c.settings.v, c.settings.f, c.measured[0], c.measured[1], c.time
+        );
+        match TABLE2.get(c.index - 1) {
+            Some(p) => {
+                let _ = writeln!(
+                    s,
+                    " {:>7.2} {:>6.3} {:>5.2} {:>5.2} {:>6.1}{flag}",
+                    p.v, p.f, p.power, p.roughness, p.time
+                );
+            }
+            None => {
+                let _ = writeln!(s, "{:>34}{flag}", "");
+            }
+        }
+    }
+    match (run.robust_optimum(), run.optimum()) {
+        (Ok(r), Ok(o)) => {
+            let _ = writeln!(
+                s,
+                "true model's optimum: {:.1} s at v = {:.2}, f = {:.3} with every part in its limits for any noise draw; {:.1} s at v = {:.2}, f = {:.3} without noise",
+                r.value, r.x[0], r.x[1], o.value, o.x[0], o.x[1]
+            );
+        }
+        _ => {
+            let _ = writeln!(s, "true model's optimum: no solution");
+        }
+    }
+    let bad: Vec<String> = run
+        .cycles
+        .iter()
+        .filter(|c| c.excess() > 0.0)
+        .map(|c| format!("cycle {} by {:.3}", c.index, c.excess()))
+        .collect();
+    if bad.is_empty() {
+        let _ = writeln!(s, "no part out of specification");
+    } else {
+        let _ = writeln!(s, "out of specification (!): {}", bad.join(", "));
+    }
+    for c in run.cycles.iter().filter(|c| c.nlp_error.is_some()) {
+        let _ = writeln!(
+            s,
+            "cycle {}: settings kept, {}",
+            c.index,
+            c.nlp_error.as_deref().unwrap_or("")
+        );
+    }
+    s
+}
+
+/// One run as CSV, one line per cycle, with 001's Table 2 columns where it has the row.
+pub fn run_csv(run: &Run) -> String {
+    let mut s = String::from(
+        "cycle,v_m_per_min,f_mm_per_rev,power_kw,roughness_um,power_true_kw,roughness_true_um,time_s,buffer_power,buffer_roughness,paper_v,paper_f,paper_g_m1,paper_g_m2,paper_time_s\n",
+    );
+    for c in &run.cycles {
+        let (b0, b1) = c
+            .buffers
+            .map(|b| (format!("{:.6}", b[0]), format!("{:.6}", b[1])))
+            .unwrap_or_default();
+        let paper = TABLE2
+            .get(c.index - 1)
+            .map(|p| format!("{},{},{},{},{}", p.v, p.f, p.power, p.roughness, p.time))
+            .unwrap_or_else(|| ",,,,".into());
+        let _ = writeln!(
+            s,
+            "{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{b0},{b1},{paper}",
+            c.index,
+            c.settings.v,
+            c.settings.f,
+            c.measured[0],
+            c.measured[1],
+            c.truth[0],
+            c.truth[1],
+            c.time
+        );
+    }
+    s
+}
+
+/// The studies side by side: convergence against violations (001, Figs. 5 and 6).
+pub fn study_table(studies: &[Study]) -> String {
+    let mut s = String::new();
+    let (runs, cycles) = studies
+        .first()
+        .map_or((0, 0), |st| (st.runs.len(), st.cycles));
+    let _ = writeln!(
+        s,
+        "{runs} seeded runs of {cycles} cycles each (same seeds, so the same true model per seed, for every policy)"
+    );
+    let _ = writeln!(
+        s,
+        "within {:.0} %: a cycle's time within {:.0} % of the true model's optimum with every part in its limits for any noise draw\n(a policy that puts parts out of specification can get there, or below, by violating)",
+        100.0 * CONVERGED,
+        100.0 * CONVERGED
+    );
+    let _ = writeln!(
+        s,
+        "{:<22} {:>9} {:>13} {:>7} {:>10} {:>9} {:>9} {:>12}",
+        "policy",
+        &format!("within {:.0}%", 100.0 * CONVERGED),
+        "median cycles",
+        "out of",
+        "runs with",
+        "worst",
+        "gap (last",
+        "conservative"
+    );
+    let _ = writeln!(
+        s,
+        "{:<22} {:>9} {:>13} {:>7} {:>10} {:>9} {:>9} {:>12}",
+        "", "(runs)", "to get there", "spec", "violation", "excess", "3 cycles)", "runs"
+    );
+    for st in studies {
+        let median = st.median_cycles();
+        let median = if median > st.cycles as f64 {
+            format!("> {}", st.cycles)
+        } else {
+            format!("{median:.1}")
+        };
+        let _ = writeln!(
+            s,
+            "{:<22} {:>9} {:>13} {:>7} {:>10} {:>9.3} {:>8.1}% {:>12}",
+            st.policy.name(),
+            st.converged_runs(),
+            median,
+            st.violations(),
+            st.violating_runs(),
+            st.worst_excess(),
+            100.0 * st.median_gap_robust(),
+            st.conservative_runs()
+        );
+    }
+    let failures: usize = studies.iter().map(|s| s.nlp_failures()).sum();
+    if failures > 0 {
+        let _ = writeln!(
+            s,
+            "{failures} cycles kept their settings because the next program had no solution"
+        );
+    }
+    s
+}
+
+/// Every run of every study as CSV, one line per run.
+pub fn study_csv(studies: &[Study]) -> String {
+    let mut s = String::from(
+        "policy,seed,violations,worst_excess,converged_at,gap_robust,gap_optimum,nlp_failures\n",
+    );
+    for st in studies {
+        for r in &st.summaries {
+            let _ = writeln!(
+                s,
+                "{},{},{},{:.6},{},{:.6},{:.6},{}",
+                st.policy.name(),
+                r.seed,
+                r.violations,
+                r.worst_excess,
+                r.converged_at.map(|c| c.to_string()).unwrap_or_default(),
+                r.gap_robust,
+                r.gap_optimum,
+                r.nlp_failures
+            );
+        }
+    }
+    s
+}

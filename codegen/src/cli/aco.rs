@@ -1,0 +1,102 @@
+//! `qloop aco`: RCB₂ (001) above the loops, on the host. See the crate `qloop-aco`.
+
+use super::error::{CliError, CliResult};
+use super::files::{create_dir, write_atomic};
+use qloop_aco::rcb::{self, Policy, Scenario};
+use qloop_aco::{figures, report, study};
+use qloop_plant::plot;
+use std::path::PathBuf;
+
+/// The options of `qloop aco`.
+pub struct Options {
+    /// Confidence level for both constraints.
+    pub c: f64,
+    /// Seed of the printed run and first seed of the study.
+    pub seed: u64,
+    /// Cycles of the printed run.
+    pub cycles: usize,
+    /// Runs per policy of the study.
+    pub runs: usize,
+    /// Cycles per run of the study.
+    pub study_cycles: usize,
+    /// Output directory.
+    pub out: PathBuf,
+}
+
+/// Most cycles or runs accepted: a study of 100 runs × 20 cycles takes a fraction of a
+/// second, and these bounds keep a typo from running for hours.
+const MAX_CYCLES: usize = 1000;
+const MAX_RUNS: usize = 10_000;
+
+fn check(o: &Options) -> CliResult {
+    if !(0.0..=1.0).contains(&o.c) {
+        return Err(CliError::Input {
+            msg: format!("--c {} is outside [0, 1]", o.c),
+            help: Some("c is 001 eq. 13's confidence level: 0 never tightens, 1 removes the whole estimated slack in one cycle".into()),
+        });
+    }
+    for (name, v, max) in [
+        ("--cycles", o.cycles, MAX_CYCLES),
+        ("--study-cycles", o.study_cycles, MAX_CYCLES),
+    ] {
+        if v == 0 || v > max {
+            return Err(CliError::Input {
+                msg: format!("{name} {v} is outside 1..={max}"),
+                help: None,
+            });
+        }
+    }
+    if o.runs > MAX_RUNS {
+        return Err(CliError::Input {
+            msg: format!("--runs {} is more than {MAX_RUNS}", o.runs),
+            help: Some("0 skips the study".into()),
+        });
+    }
+    Ok(())
+}
+
+fn write_figure(fig: &plot::Figure, out: &std::path::Path, stem: &str) -> CliResult {
+    plot::write_svg(fig, &out.join(format!("{stem}.svg"))).map_err(CliError::Output)?;
+    plot::write_png(fig, &out.join(format!("{stem}.png"))).map_err(CliError::Output)
+}
+
+/// Runs `qloop aco`.
+pub fn run(o: &Options) -> CliResult {
+    check(o)?;
+    create_dir(&o.out)?;
+    let mut sc = Scenario::paper(Policy::rcb2(o.c), o.seed);
+    sc.cycles = o.cycles;
+    let run = rcb::run(&sc);
+    let mut text = report::run_table(&run);
+    write_atomic(&o.out.join("rcb2-run.csv"), &report::run_csv(&run))?;
+    write_figure(&figures::run_figure(&run), &o.out, "rcb2-run")?;
+    if o.runs > 0 {
+        let policies = [
+            Policy::rcb2(0.1),
+            Policy::rcb2(0.5),
+            Policy::rcb2(0.9),
+            Policy::Nominal { margin: 0.0 },
+            Policy::Nominal { margin: 0.1 },
+        ];
+        let studies: Vec<_> = policies
+            .iter()
+            .map(|&p| study::study(p, o.runs, o.seed, o.study_cycles))
+            .collect();
+        text.push('\n');
+        text.push_str(&report::study_table(&studies));
+        write_atomic(&o.out.join("rcb2-study.csv"), &report::study_csv(&studies))?;
+        write_figure(&figures::study_figure(&studies), &o.out, "rcb2-study")?;
+    }
+    write_atomic(&o.out.join("rcb2.txt"), &text)?;
+    print!("{text}");
+    println!(
+        "wrote {}/rcb2.txt, rcb2-run.{{csv,png,svg}}{}",
+        o.out.display(),
+        if o.runs > 0 {
+            ", rcb2-study.{csv,png,svg}"
+        } else {
+            ""
+        }
+    );
+    Ok(())
+}
