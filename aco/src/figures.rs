@@ -119,3 +119,163 @@ pub fn study_figure(studies: &[Study]) -> Figure {
         ],
     }
 }
+
+/// φ against spindle speed along the torque limit (the tooth load at which the torque is at
+/// its limit), for β = 0, 0.5 and 1, with the temperature along the same line: the optimum is
+/// where φ stops rising, at the first limit met.
+pub fn bendix_figure(m: &crate::bendix::Milling, e: &crate::bendix::Economics) -> Figure {
+    let c = m.u0 * m.f0.powf(m.m) * m.width * m.depth * m.teeth / (2.0 * std::f64::consts::PI);
+    let ft = (m.torque_max / c).powf(1.0 / (1.0 - m.m));
+    let steps = 200;
+    let n: Vec<f64> = (0..=steps)
+        .map(|i| m.speed.0 + (m.speed.1 - m.speed.0) * i as f64 / steps as f64)
+        .collect();
+    let feasible = |n: f64| {
+        let v = ft * m.teeth * n;
+        v <= m.feed_max && m.constraints(v, n).iter().all(|g| *g <= 1e-9)
+    };
+    let phi = |beta: f64| -> Vec<f64> {
+        n.iter()
+            .map(|&n| {
+                if feasible(n) {
+                    m.index(e, beta, ft * m.teeth * n, n)
+                } else {
+                    f64::NAN
+                }
+            })
+            .collect()
+    };
+    Figure {
+        title: format!(
+            "Bendix index along the torque limit (tooth load {ft:.4} in): feasible part only"
+        ),
+        t: n.clone(),
+        x_label: "spindle speed N (rpm)".into(),
+        panels: vec![
+            Panel {
+                title: "phi (in^3/$)".into(),
+                series: [0.0, 0.5, 1.0]
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &b)| series(&format!("beta = {b}"), phi(b), Line::Design(i)))
+                    .collect(),
+            },
+            Panel {
+                title: "tool temperature (F)".into(),
+                series: vec![
+                    series(
+                        "theta",
+                        n.iter()
+                            .map(|&n| m.temperature(ft * m.teeth * n, n))
+                            .collect(),
+                        Line::Fixed,
+                    ),
+                    series("limit", vec![m.temp_max; n.len()], Line::Setpoint),
+                ],
+            },
+            Panel {
+                title: "feedrate V (in/min)".into(),
+                series: vec![
+                    series(
+                        "V at the torque limit",
+                        n.iter().map(|&n| ft * m.teeth * n).collect(),
+                        Line::Fixed,
+                    ),
+                    series("max feed", vec![m.feed_max; n.len()], Line::Setpoint),
+                ],
+            },
+        ],
+    }
+}
+
+/// The cascade per part: F_r, the cycle time (closed loop against the static model), and the
+/// two measurements against their limits.
+pub fn cascade_figure(run: &crate::cascade::CascadeRun) -> Figure {
+    use crate::cascade::LIMITS;
+    let n = run.parts.len();
+    let col =
+        |g: &dyn Fn(&crate::cascade::PartRun) -> f64| run.parts.iter().map(g).collect::<Vec<_>>();
+    Figure {
+        title: "RCB2 sets the force reference of the generated 1981 loop, part by part (turning plant, closed loop)".into(),
+        t: (1..=n).map(|j| j as f64).collect(),
+        x_label: "part".into(),
+        panels: vec![
+            Panel {
+                title: "force reference F_r chosen by RCB2 (kN)".into(),
+                series: vec![series("F_r", col(&|p| p.fr), Line::Fixed)],
+            },
+            Panel {
+                title: "cycle time (s)".into(),
+                series: vec![
+                    series("closed loop (generated controller)", col(&|p| p.time), Line::Fixed),
+                    series("static model (nominal K_s)", col(&|p| p.time_static), Line::Reference),
+                ],
+            },
+            Panel {
+                title: "peak force over the part (kN)".into(),
+                series: vec![
+                    series("measured", col(&|p| p.measured[0]), Line::Fixed),
+                    series("limit", vec![LIMITS[0]; n], Line::Setpoint),
+                ],
+            },
+            Panel {
+                title: "surface roughness Ra (um)".into(),
+                series: vec![
+                    series("measured", col(&|p| p.measured[1]), Line::Fixed),
+                    series("limit", vec![LIMITS[1]; n], Line::Setpoint),
+                ],
+            },
+        ],
+    }
+}
+
+/// The force the sensor read within the first, second and last parts, against each part's
+/// reference: the inner loop holding the set point the outer layer chose.
+pub fn cascade_parts_figure(run: &crate::cascade::CascadeRun) -> Figure {
+    let mut picks: Vec<&crate::cascade::PartRun> = run.parts.iter().take(2).collect();
+    if let Some(last) = run.parts.last() {
+        if run.parts.len() > 2 {
+            picks.push(last);
+        }
+    }
+    let n = picks.iter().map(|p| p.force.len()).max().unwrap_or(0);
+    let period = picks.first().map_or(0.1, |p| p.period);
+    let pad = |v: &[f64]| {
+        let mut v = v.to_vec();
+        v.resize(n, f64::NAN);
+        v
+    };
+    let mut force = Vec::new();
+    for (i, p) in picks.iter().enumerate() {
+        force.push(series(
+            &format!("part {} (F_r = {:.3} kN)", p.index, p.fr),
+            pad(&p.force),
+            Line::Design(i),
+        ));
+    }
+    for p in &picks {
+        force.push(series(
+            &format!("F_r part {}", p.index),
+            pad(&vec![p.fr; p.force.len()]),
+            Line::Setpoint,
+        ));
+    }
+    Figure {
+        title: format!(
+            "Within a part: the generated loop holds the chosen F_r (depth {} mm along the part)",
+            run.cascade
+                .part
+                .sections
+                .iter()
+                .map(|s| s.1.to_string())
+                .collect::<Vec<_>>()
+                .join(" -> ")
+        ),
+        t: (0..n).map(|k| k as f64 * period).collect(),
+        x_label: "t (s) from the start of the cut".into(),
+        panels: vec![Panel {
+            title: "measured cutting force (kN)".into(),
+            series: force,
+        }],
+    }
+}

@@ -4,12 +4,18 @@
 //! - [`turning`]: the turning model of 001 (Ivester & Danai), reconstructed (its eqs. 16–20 and
 //!   Table 1 are lost in the extraction).
 //! - [`rcb`]: RCB₂, recursive constraint bounding (001 eqs. 5–14).
+//! - [`bendix`]: the Bendix ACO index (002 eqs. 1–3) and its optimiser over feedrate and
+//!   spindle speed.
+//! - [`cascade`]: the outer layer choosing the inner loop's force reference per part, the
+//!   part's time measured in closed loop with the generated controller.
 //! - [`nlp`]: the nonlinear program, solved by the `slsqp` crate.
 //! - [`study`]: seeded studies of a policy (convergence against violations).
 //! - [`paper`]: 001's Table 2; [`report`] and [`figures`]: tables, CSV and plots.
 //!
 //! This is not firmware: it runs between parts on the PC next to the machine controller.
 
+pub mod bendix;
+pub mod cascade;
 pub mod figures;
 pub mod nlp;
 pub mod paper;

@@ -60,9 +60,31 @@ pub struct Optimum {
     pub value: f64,
 }
 
+/// Restarts of SLSQP from its own answer, at most: a restart drops the quasi-Newton
+/// Hessian that sometimes stalls a run short of the optimum.
+pub const RESTARTS: usize = 8;
+
 /// Minimises `objective` subject to `constraints[i](x) ≤ 0` and the box `bounds`, from
-/// `start` (clamped into the box).
+/// `start` (clamped into the box). SLSQP is restarted from its answer while that improves
+/// the objective, at most [`RESTARTS`] times.
 pub fn minimise(
+    objective: Smooth<'_>,
+    constraints: &[Smooth<'_>],
+    start: &[f64],
+    bounds: &[(f64, f64)],
+) -> Result<Optimum, NlpError> {
+    let mut best = solve(objective, constraints, start, bounds)?;
+    for _ in 0..RESTARTS {
+        match solve(objective, constraints, &best.x, bounds) {
+            Ok(o) if o.value < best.value - 1e-12 * best.value.abs().max(1.0) => best = o,
+            _ => break,
+        }
+    }
+    Ok(best)
+}
+
+/// One SLSQP run.
+fn solve(
     objective: Smooth<'_>,
     constraints: &[Smooth<'_>],
     start: &[f64],
@@ -113,6 +135,12 @@ pub fn minimise(
         Ok((s, z, _)) => (format!("{s:?}"), z),
         Err((s, z, _)) => (format!("{s:?}"), z),
     };
+    if std::env::var_os("ACO_DEBUG").is_some() {
+        eprintln!(
+            "slsqp {status} {z:?} after {} evaluations",
+            seen.borrow().len()
+        );
+    }
     let mut candidates = seen.into_inner();
     candidates.push(z);
     let violation = |x: &[f64]| -> (usize, f64) {

@@ -123,11 +123,16 @@ pub struct Run {
 }
 
 /// RCB₂'s buffers for the next cycle from this cycle's measurements (001 eqs. 7 and 13):
-/// `b = −c·[(m − limit) + 0.2·m]`.
+/// `b = −c·[(m − limit) + 0.2·m]`, with the turning model's limits.
 pub fn buffers(confidence: [f64; 2], measured: [f64; 2]) -> [f64; 2] {
+    buffers_within(confidence, measured, LIMITS)
+}
+
+/// [`buffers`] for any two limits.
+pub fn buffers_within(confidence: [f64; 2], measured: [f64; 2], limits: [f64; 2]) -> [f64; 2] {
     let mut b = [0.0; 2];
     for i in 0..2 {
-        let ga = measured[i] - LIMITS[i];
+        let ga = measured[i] - limits[i];
         let n_r = 0.2 * measured[i];
         b[i] = -confidence[i] * (ga + n_r);
     }

@@ -208,3 +208,148 @@ pub fn study_csv(studies: &[Study]) -> String {
     }
     s
 }
+
+/// The Bendix optimiser's answers for β = 0, 0.5 and 1 on a milling model (002 eqs. 1–3).
+pub fn bendix_table(m: &crate::bendix::Milling, e: &crate::bendix::Economics) -> String {
+    use crate::bendix::{mrr, optimise};
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "Bendix ACO (002 eqs. 1-3): phi = MRR / [C1 + (C1 t1 + C2 beta) TWR/W0], TWR = K1 MRR + K2 theta (steady torque)"
+    );
+    let _ = writeln!(
+        s,
+        "cut {} in x {} in, {} teeth; limits: torque {} lbf*in, temperature {} F, vibration {} in, speed {}-{} rpm, feed <= {} in/min",
+        m.width, m.depth, m.teeth, m.torque_max, m.temp_max, m.vib_max, m.speed.0, m.speed.1, m.feed_max
+    );
+    let _ = writeln!(
+        s,
+        "C1 = {} $/min, C2 = {} $, t1 = {} min, W0 = {} in, K1 = {:e} in/in^3, K2 = {:e} in/min/F",
+        e.c1, e.c2, e.t1, e.w0, e.k1, e.k2
+    );
+    let _ = writeln!(
+        s,
+        "{:>5} {:>10} {:>9} {:>10} {:>9} {:>8} {:>9} {:>10}  active",
+        "beta", "V in/min", "N rpm", "MRR in3/m", "T lbf*in", "theta F", "life min", "phi"
+    );
+    for beta in [0.0, 0.5, 1.0] {
+        match optimise(m, e, beta) {
+            Ok(o) => {
+                let r = mrr(m.width, m.depth, o.feed);
+                let theta = m.temperature(o.feed, o.speed);
+                let life = e.w0 / crate::bendix::twr(e, r, theta, 0.0);
+                let _ = writeln!(
+                    s,
+                    "{beta:>5} {:>10.2} {:>9.1} {r:>10.2} {:>9.1} {theta:>8.0} {life:>9.1} {:>10.4}  {}",
+                    o.feed,
+                    o.speed,
+                    m.torque(o.feed, o.speed),
+                    o.index,
+                    o.active.join(", ")
+                );
+            }
+            Err(err) => {
+                let _ = writeln!(s, "{beta:>5} no optimum: {err}");
+            }
+        }
+    }
+    s
+}
+
+/// The cascade's parts: F_r chosen by RCB₂, what the closed loop measured, and its time
+/// beside the static model's.
+pub fn cascade_table(run: &crate::cascade::CascadeRun) -> String {
+    use crate::cascade::LIMITS;
+    let c = &run.cascade;
+    let mut s = String::new();
+    let sections: Vec<String> = c
+        .part
+        .sections
+        .iter()
+        .map(|(l, a)| format!("{l} mm at {a} mm"))
+        .collect();
+    let _ = writeln!(
+        s,
+        "RCB2 (c = {} for the peak force, {} for the roughness) sets the force reference F_r of the generated Koren-Masory loop per part; the loop holds it on the turning plant",
+        c.confidence[0], c.confidence[1]
+    );
+    let _ = writeln!(
+        s,
+        "part: {}, {} rpm, {} s handling; plant K_s {:.4} (static model {:.4}); seed {}",
+        sections.join(", "),
+        c.part.spindle_rpm,
+        c.part.handling_s,
+        run.true_ks,
+        crate::cascade::StaticModel::nominal().ks,
+        c.seed
+    );
+    let _ = writeln!(
+        s,
+        "limits: peak force {} kN, roughness {} um; cycle time from the closed loop, beside the static model's prediction",
+        LIMITS[0], LIMITS[1]
+    );
+    let _ = writeln!(
+        s,
+        "{:>5} {:>8} {:>10} {:>9} {:>11} {:>11} {:>7} {:>7}",
+        "part", "F_r kN", "peak kN", "Ra um", "t loop s", "t static s", "b1", "b2"
+    );
+    for p in &run.parts {
+        let flag = if p.excess() > 0.0 { " !" } else { "" };
+        let unfinished = if p.finished { "" } else { " (not finished)" };
+        let _ = writeln!(
+            s,
+            "{:>5} {:>8.3} {:>10.3} {:>9.2} {:>11.1} {:>11.1} {:>7.3} {:>7.3}{flag}{unfinished}",
+            p.index,
+            p.fr,
+            p.measured[0],
+            p.measured[1],
+            p.time,
+            p.time_static,
+            p.buffers[0],
+            p.buffers[1]
+        );
+    }
+    let out: Vec<String> = run
+        .parts
+        .iter()
+        .filter(|p| p.excess() > 0.0)
+        .map(|p| format!("part {} by {:.3}", p.index, p.excess()))
+        .collect();
+    if out.is_empty() {
+        let _ = writeln!(s, "no part out of specification");
+    } else {
+        let _ = writeln!(s, "out of specification (!): {}", out.join(", "));
+    }
+    for p in run.parts.iter().filter(|p| p.nlp_error.is_some()) {
+        let _ = writeln!(
+            s,
+            "part {}: F_r kept, {}",
+            p.index,
+            p.nlp_error.as_deref().unwrap_or("")
+        );
+    }
+    s
+}
+
+/// The cascade as CSV, one line per part.
+pub fn cascade_csv(run: &crate::cascade::CascadeRun) -> String {
+    let mut s = String::from(
+        "part,fr_kn,peak_force_kn,roughness_um,cycle_time_s,finished,static_time_s,buffer_force,buffer_roughness\n",
+    );
+    for p in &run.parts {
+        let _ = writeln!(
+            s,
+            "{},{:.6},{:.6},{:.6},{:.6},{},{:.6},{:.6},{:.6}",
+            p.index,
+            p.fr,
+            p.measured[0],
+            p.measured[1],
+            p.time,
+            p.finished,
+            p.time_static,
+            p.buffers[0],
+            p.buffers[1]
+        );
+    }
+    s
+}

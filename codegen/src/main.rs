@@ -180,6 +180,7 @@ fn run(cli: Cli) -> CliResult {
             name,
         } => cli::c2d::run(&num, &den, period, &beta, &name),
         Cmd::Aco {
+            study,
             c,
             seed,
             cycles,
@@ -187,6 +188,7 @@ fn run(cli: Cli) -> CliResult {
             study_cycles,
             out,
         } => cli::aco::run(&cli::aco::Options {
+            study,
             c,
             seed,
             cycles,

@@ -180,6 +180,28 @@ fn aco_failures() {
     for f in ["rcb2.txt", "rcb2-run.csv", "rcb2-run.png", "rcb2-study.svg"] {
         assert!(d.join("out").join(f).is_file(), "{f}");
     }
+    expect(
+        "aco: unknown study",
+        &run(&["aco", "nope", "--out", &out], &[]),
+        2,
+        &["invalid value 'nope'", "rcb2, bendix, cascade"],
+    );
+    expect_stdout(
+        "aco bendix: done",
+        &run(&["aco", "bendix", "--out", &out], &[]),
+        0,
+        &["torque, temperature"],
+    );
+    // The cascade compiles its inner loop with cargo, as `sim` does.
+    expect(
+        "aco cascade: cargo missing",
+        &run(
+            &["aco", "cascade", "--out", &out],
+            &[("CARGO", "/nonexistent/cargo")],
+        ),
+        1,
+        &["cargo, which did not start"],
+    );
 }
 
 #[test]

@@ -44,3 +44,12 @@ echo "docs/figures/milling-multimodel-comparison.{svg,png,txt}"
 ./target/release/qloop aco --out "$tmp/aco" >/dev/null
 for f in rcb2-run.svg rcb2-run.png rcb2-study.svg rcb2-study.png rcb2.txt; do cp "$tmp/aco/$f" docs/figures/; done
 echo "docs/figures/rcb2-{run,study}.{svg,png}, docs/figures/rcb2.txt"
+# 002's Bendix index maximised over feedrate and spindle speed (issue 19, item 5).
+./target/release/qloop aco bendix --out "$tmp/bendix" >/dev/null
+for f in bendix.svg bendix.png bendix.txt; do cp "$tmp/bendix/$f" docs/figures/; done
+echo "docs/figures/bendix.{svg,png,txt}"
+# The cascade (issue 19, item 6): RCB2 sets the force reference of the generated 1981 loop
+# for ten parts, each cut in closed loop on the turning plant.
+./target/release/qloop aco cascade --out "$tmp/cascade" >/dev/null
+for f in cascade.svg cascade.png cascade.txt cascade-parts.svg cascade-parts.png; do cp "$tmp/cascade/$f" docs/figures/; done
+echo "docs/figures/cascade{,-parts}.{svg,png}, docs/figures/cascade.txt"

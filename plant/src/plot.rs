@@ -256,14 +256,22 @@ where
         mesh.draw().map_err(err)?;
         for s in &p.series {
             let st = style(s.line);
+            // A non-finite sample (NaN: no data there) breaks the line into segments.
+            let points: Vec<(f64, f64)> = fig.t.iter().copied().zip(s.y.iter().copied()).collect();
+            let mut segments = points
+                .split(|(_, y)| !y.is_finite())
+                .filter(|g| !g.is_empty());
+            let first = segments.next().unwrap_or(&[]);
             chart
-                .draw_series(LineSeries::new(
-                    fig.t.iter().copied().zip(s.y.iter().copied()),
-                    st,
-                ))
+                .draw_series(LineSeries::new(first.iter().copied(), st))
                 .map_err(err)?
                 .label(s.label.clone())
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], st));
+            for g in segments {
+                chart
+                    .draw_series(LineSeries::new(g.iter().copied(), st))
+                    .map_err(err)?;
+            }
         }
         chart
             .configure_series_labels()
@@ -355,6 +363,22 @@ mod tests {
             }],
             t,
         }
+    }
+
+    /// NaN samples (no data) split a line instead of drawing to a bogus point: the SVG has
+    /// two polylines for the series (and the legend's sample, a third) and no NaN.
+    #[test]
+    fn nan_samples_break_the_line() {
+        let mut f = fig();
+        f.panels.truncate(1);
+        f.panels[0].series.truncate(1);
+        f.panels[0].series[0].y[20] = f64::NAN;
+        let svg = to_svg(&f).unwrap();
+        assert!(!svg.contains("NaN"));
+        let blue = svg
+            .matches("<polyline fill=\"none\" opacity=\"1\" stroke=\"#1F5AC8\"")
+            .count();
+        assert_eq!(blue, 3, "{svg}");
     }
 
     #[test]

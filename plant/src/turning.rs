@@ -47,6 +47,11 @@ pub struct TurningParams {
     pub fr_kn: f64,
     /// Force sensor.
     pub sensor: SensorParams,
+    /// Depth of cut against the tool's axial position, for a part whose geometry sets the
+    /// depth: points `(position_mm, depth_mm)`, read like a scenario schedule. When set, it
+    /// replaces the `a_mm` channel, and the time to cut a length comes from the closed loop.
+    /// None (default): the channel.
+    pub depth_profile: Option<Schedule>,
 }
 
 /// The paper operating point used to calibrate K_s: at a = 2 mm and n = 500 rpm the
@@ -74,6 +79,7 @@ impl Default for TurningParams {
                 range: (0.0, 5.0),
                 bits: 12,
             },
+            depth_profile: None,
         }
     }
 }
@@ -85,6 +91,8 @@ pub struct Turning {
     pub p: TurningParams,
     /// Axial feedrate V (mm/s).
     v: f64,
+    /// Axial position of the tool from the start of the cut (mm).
+    x: f64,
     /// Command in force at the servo (mm/s).
     cmd: f64,
     /// Issued commands not yet applied: (time to apply, value).
@@ -99,14 +107,19 @@ impl Turning {
         Turning {
             p,
             v: 0.0,
+            x: 0.0,
             cmd: 0.0,
             pending: VecDeque::new(),
             decay: (0.0, 1.0),
         }
     }
 
-    fn depth(sc: &Scenario, t: f64) -> f64 {
-        sc.value("a_mm", t, 2.0).max(0.0)
+    fn depth(&self, sc: &Scenario, t: f64) -> f64 {
+        match &self.p.depth_profile {
+            Some(profile) => profile.at(self.x),
+            None => sc.value("a_mm", t, 2.0),
+        }
+        .max(0.0)
     }
 
     fn speed(sc: &Scenario, t: f64) -> f64 {
@@ -120,7 +133,7 @@ impl Turning {
 
     /// Main cutting force F = K_s·a·f^u in kN (002 eq. 5).
     pub fn force_kn(&self, sc: &Scenario, t: f64) -> f64 {
-        let a = Self::depth(sc, t);
+        let a = self.depth(sc, t);
         let f = self.feed_per_rev(sc, t);
         if a <= 0.0 || f <= 0.0 {
             return 0.0;
@@ -188,6 +201,9 @@ impl Plant for Turning {
         if self.decay.0 != h {
             self.decay = (h, (-h / self.p.tau_servo_s).exp());
         }
+        // The position integrates the same response exactly:
+        // ∫ v = cmd·h + (v − cmd)·τ·(1 − e^{−h/τ}).
+        self.x += self.cmd * h + (self.v - self.cmd) * self.p.tau_servo_s * (1.0 - self.decay.1);
         self.v = self.cmd + (self.v - self.cmd) * self.decay.1;
     }
     fn output(&self, sc: &Scenario, t: f64) -> f64 {
@@ -201,16 +217,18 @@ impl Plant for Turning {
             "feed_mm_s",
             "f_mm_rev",
             "force_n",
+            "x_mm",
         ]
     }
     fn record(&self, sc: &Scenario, t: f64, out: &mut Vec<f64>) {
         out.extend([
-            Self::depth(sc, t),
+            self.depth(sc, t),
             Self::speed(sc, t),
             self.cmd,
             self.v,
             self.feed_per_rev(sc, t),
             self.force_kn(sc, t) * 1000.0,
+            self.x,
         ]);
     }
     fn fresh(&self) -> Box<dyn Plant> {
@@ -451,5 +469,36 @@ mod tests {
         }
         // After 20 ms of motion: 1 − e^{-1}.
         assert!((p.v - (1.0 - (-1f64).exp())).abs() < 1e-12, "{}", p.v);
+    }
+
+    /// The axial position is the exact integral of the lagged feed: after a unit command
+    /// reaches the servo, x(s) = s − τ·(1 − e^{−s/τ}); and with a depth profile the depth is
+    /// read at that position (a step from 2 to 4 mm at 0.03 mm).
+    #[test]
+    fn position_integrates_the_feed_and_selects_the_depth() {
+        let profile = Schedule(vec![[0.0, 2.0], [0.03, 2.0], [0.03, 4.0]]);
+        let mut p = Turning::new(TurningParams {
+            depth_profile: Some(profile),
+            ..TurningParams::default()
+        });
+        let sc = scenario_named("depth-steps").unwrap();
+        p.command_at(0.0, 1.0);
+        let h = 0.001;
+        let mut t = 0.0;
+        while t < 0.0995 {
+            p.advance(&sc, t, h);
+            t += h;
+        }
+        assert_eq!(p.x, 0.0);
+        assert_eq!(p.depth(&sc, t), 2.0);
+        for _ in 0..60 {
+            p.advance(&sc, t, h);
+            t += h;
+        }
+        let (s, tau): (f64, f64) = (0.06, 0.02);
+        let x = s - tau * (1.0 - (-s / tau).exp());
+        assert!((p.x - x).abs() < 1e-12, "{} against {x}", p.x);
+        assert!(p.x > 0.03);
+        assert_eq!(p.depth(&sc, t), 4.0);
     }
 }

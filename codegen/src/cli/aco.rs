@@ -1,14 +1,17 @@
 //! `qloop aco`: RCB₂ (001) above the loops, on the host. See the crate `qloop-aco`.
 
+use super::args::AcoStudy;
 use super::error::{CliError, CliResult};
 use super::files::{create_dir, write_atomic};
 use qloop_aco::rcb::{self, Policy, Scenario};
-use qloop_aco::{figures, report, study};
+use qloop_aco::{bendix, cascade, figures, report, study};
 use qloop_plant::plot;
 use std::path::PathBuf;
 
 /// The options of `qloop aco`.
 pub struct Options {
+    /// Which study.
+    pub study: AcoStudy,
     /// Confidence level for both constraints.
     pub c: f64,
     /// Seed of the printed run and first seed of the study.
@@ -64,6 +67,11 @@ fn write_figure(fig: &plot::Figure, out: &std::path::Path, stem: &str) -> CliRes
 pub fn run(o: &Options) -> CliResult {
     check(o)?;
     create_dir(&o.out)?;
+    match o.study {
+        AcoStudy::Bendix => return run_bendix(o),
+        AcoStudy::Cascade => return run_cascade(o),
+        AcoStudy::Rcb2 => {}
+    }
     let mut sc = Scenario::paper(Policy::rcb2(o.c), o.seed);
     sc.cycles = o.cycles;
     let run = rcb::run(&sc);
@@ -97,6 +105,54 @@ pub fn run(o: &Options) -> CliResult {
         } else {
             ""
         }
+    );
+    Ok(())
+}
+
+/// `qloop aco bendix`: the optimum of 002's index for three β on the example cut.
+fn run_bendix(o: &Options) -> CliResult {
+    let (m, e) = (bendix::EXAMPLE, bendix::EXAMPLE_ECONOMICS);
+    let text = report::bendix_table(&m, &e);
+    write_atomic(&o.out.join("bendix.txt"), &text)?;
+    write_figure(&figures::bendix_figure(&m, &e), &o.out, "bendix")?;
+    print!("{text}");
+    println!("wrote {}/bendix.{{txt,png,svg}}", o.out.display());
+    Ok(())
+}
+
+/// `qloop aco cascade`: RCB₂ sets the inner loop's force reference per part; the built-in
+/// setpoint spec (the tuned 1981 law with `input fr`) is compiled as `sim` compiles a spec and
+/// cuts each part in closed loop.
+fn run_cascade(o: &Options) -> CliResult {
+    let name = "koren_masory_setpoint.qloop";
+    let plan =
+        qloop::compile_str(cascade::SETPOINT_SPEC, &qloop::Target::default()).map_err(|d| {
+            CliError::tool(format!(
+                "internal: the built-in spec {name} does not compile:\n{}",
+                super::error::render(&d, name, cascade::SETPOINT_SPEC)
+            ))
+        })?;
+    let compiled = super::jit::compile(&plan)?;
+    let mut c = cascade::Cascade::example();
+    c.parts = o.cycles;
+    c.confidence = [o.c, o.c];
+    c.seed = o.seed;
+    let make = || compiled.fixed() as Box<dyn qloop_plant::Controller>;
+    let run = cascade::run(&c, &make).map_err(CliError::tool)?;
+    let text = report::cascade_table(&run);
+    write_atomic(&o.out.join(name), cascade::SETPOINT_SPEC)?;
+    write_atomic(&o.out.join("cascade.txt"), &text)?;
+    write_atomic(&o.out.join("cascade.csv"), &report::cascade_csv(&run))?;
+    write_figure(&figures::cascade_figure(&run), &o.out, "cascade")?;
+    write_figure(
+        &figures::cascade_parts_figure(&run),
+        &o.out,
+        "cascade-parts",
+    )?;
+    print!("{text}");
+    println!(
+        "wrote {}/cascade.{{txt,csv,png,svg}}, cascade-parts.{{png,svg}} and the inner loop's spec {name}",
+        o.out.display()
     );
     Ok(())
 }

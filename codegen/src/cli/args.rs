@@ -328,6 +328,13 @@ pub enum Cmd {
     /// nominal optimiser without buffers (001, Figs. 5 and 6). Writes the table, CSV files and
     /// plots to the output directory.
     Aco {
+        /// `rcb2`: 001's RCB2 (the default); `bendix`: 002's Bendix ACO index (eqs. 1-3)
+        /// maximised over feedrate and spindle speed for beta = 0, 0.5 and 1 on an example
+        /// milling cut; `cascade`: RCB2 sets the force reference of the generated
+        /// Koren-Masory loop for each of `--cycles` parts, each part cut in closed loop on
+        /// the turning plant (needs cargo, like `sim`; uses `--c` and `--seed`).
+        #[arg(value_enum, default_value = "rcb2")]
+        study: AcoStudy,
         /// Confidence level c of 001 eq. 13 for both constraints, in [0, 1].
         #[arg(long, default_value_t = 0.5)]
         c: f64,
@@ -361,6 +368,17 @@ pub enum Cmd {
         /// One plant (default: all).
         plant: Option<String>,
     },
+}
+
+/// `qloop aco STUDY`.
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum AcoStudy {
+    /// RCB2 (001).
+    Rcb2,
+    /// The Bendix ACO index (002 eqs. 1-3).
+    Bendix,
+    /// RCB2 choosing the force reference of the generated 1981 loop per part (issue 19).
+    Cascade,
 }
 
 /// `qloop prove --solvers`.
