@@ -16,6 +16,9 @@
 //!   part (µm, limit 3.2, nose radius 0.8 mm), read by a gauge with ±10 % noise (001's noise
 //!   model).
 //!
+//! The noise widths n_R of eq. 7 are each measurement's own: ±3σ of the force sensor (6σ,
+//! 0.06 kN at 10 N) and 0.2·m for the gauge.
+//!
 //! **The static model** for the nonlinear program: the steady feed where the force equals
 //! F_r, `f_i = (F_r/(K_s·a_i))^(1/u)` (002 eq. 5) in each section, with the nominal K_s. It
 //! gives the machining time Σ L_i/(f_i·n/60), a peak force of F_r (no overshoot) and the
@@ -24,7 +27,7 @@
 //! the change it predicts (001 eq. 6).
 
 use crate::nlp::{self, NlpError};
-use crate::rcb::buffers_within;
+use crate::rcb::{buffers_with, noise_width};
 use qloop_plant::controller::Controller;
 use qloop_plant::runner::{run_single, RunConfig};
 use qloop_plant::scenario::{Scenario, Schedule};
@@ -148,11 +151,13 @@ pub struct PartRun {
     pub time: f64,
     /// Whether the tool reached the end of the part within the horizon.
     pub finished: bool,
-    /// The static model's prediction of the cycle time (s).
+    /// The static model's prediction of the cycle time (s), with the nominal K_s (so it
+    /// differs from the closed loop by the bias as well as by the transients).
     pub time_static: f64,
     /// The buffers for the next part (eq. 13).
     pub buffers: [f64; 2],
-    /// Set when the next part's program had no solution (F_r is then kept).
+    /// Set when the next part's program had no solution (the next part then goes back to
+    /// the first part's F_r).
     pub nlp_error: Option<String>,
     /// The force the sensor read, one sample per controller period, while cutting (kN).
     pub force: Vec<f64>,
@@ -316,7 +321,10 @@ pub fn run(
         let w = c.gauge_noise;
         let ra = c.part.roughness(cut.fmax) * rng.random_range(1.0 - w..=1.0 + w);
         let measured = [cut.peak, ra];
-        let buffers = buffers_within(c.confidence, measured, LIMITS);
+        // n_R (001 eq. 7): the sensor's ±3σ band for the peak force, the gauge's ±10 % for
+        // the roughness.
+        let n_r = [6.0 * c.sensor_noise_kn, noise_width(ra)];
+        let buffers = buffers_with(c.confidence, measured, LIMITS, n_r);
         let mut p = PartRun {
             index,
             fr,
@@ -331,7 +339,12 @@ pub fn run(
         };
         match next_fr(&model, &c.part, fr, buffers) {
             Ok(next) => fr = next,
-            Err(e) => p.nlp_error = Some(e.to_string()),
+            // No F_r meets the modified constraints: back to the first part's conservative
+            // reference, not the one that just failed.
+            Err(e) => {
+                p.nlp_error = Some(e.to_string());
+                fr = c.first_fr;
+            }
         }
         parts.push(p);
     }

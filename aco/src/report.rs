@@ -194,7 +194,7 @@ pub fn study_csv(studies: &[Study]) -> String {
         for r in &st.summaries {
             let _ = writeln!(
                 s,
-                "{},{},{},{:.6},{},{:.6},{:.6},{}",
+                "\"{}\",{},{},{:.6},{},{:.6},{:.6},{}",
                 st.policy.name(),
                 r.seed,
                 r.violations,

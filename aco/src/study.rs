@@ -77,11 +77,12 @@ pub fn summarise(run: &Run) -> RunSummary {
     }
 }
 
-/// Runs `runs` seeded scenarios (seeds `first_seed..first_seed + runs`) of `cycles` cycles.
+/// Runs `runs` seeded scenarios (seeds `first_seed`, `first_seed + 1`, ..., wrapping at
+/// `u64::MAX`) of `cycles` cycles.
 pub fn study(policy: Policy, runs: usize, first_seed: u64, cycles: usize) -> Study {
     let runs: Vec<Run> = (0..runs as u64)
         .map(|i| {
-            let mut sc = Scenario::paper(policy, first_seed + i);
+            let mut sc = Scenario::paper(policy, first_seed.wrapping_add(i));
             sc.cycles = cycles;
             rcb::run(&sc)
         })

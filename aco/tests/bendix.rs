@@ -48,8 +48,9 @@ fn torque_temperature_vertex(m: &Milling) -> (f64, f64) {
     (ft * m.teeth * n, n)
 }
 
-/// With θ growing slower than speed (p = 0.5), φ rises with feed and speed, so the optimum is
-/// at the torque limit and the temperature limit, for every β (the module docs derive it).
+/// With q < p < 1 (0.2 < 0.5), φ rises with feed and speed and falls with speed along the
+/// temperature limit, so the optimum is at the torque limit and the temperature limit, for
+/// every β (the module docs derive it).
 #[test]
 fn optimum_is_on_the_torque_and_temperature_limits() {
     let (v, n) = torque_temperature_vertex(&EXAMPLE);
@@ -62,8 +63,9 @@ fn optimum_is_on_the_torque_and_temperature_limits() {
     }
 }
 
-/// With θ growing faster than speed (p = 2) and a wear rate more sensitive to it (K2 = 4e-6),
-/// there is a best speed inside the limits:
+/// With θ growing faster than speed (p = 2), a wear rate more sensitive to it (K2 = 4e-6) and
+/// the temperature limit lifted out of the way (so that only the wear trade-off sets the
+/// speed), there is a best speed inside the limits:
 /// N* = [C1/(k·K2·Θ′·(p − 1))]^(1/p) with Θ′ = Θ0·N0^−p·(f_t/F0)^q and
 /// k = (C1·t1 + C2·β)/W0, at the torque-limited tooth load. Weighing the tool's cost (β = 1)
 /// lowers it against the production rate (β = 0).
@@ -114,4 +116,15 @@ fn speed_bound_binds_when_lower() {
     };
     let o = optimise(&m, &EXAMPLE_ECONOMICS, 0.5).unwrap();
     assert_eq!(o.active, vec!["torque", "max speed"], "{o:?}");
+}
+
+/// With q > p (tooth load heating more than speed: q = 0.8, p = 0.5) the removal rate grows
+/// with speed along the temperature limit, so the optimum leaves the torque limit for the
+/// temperature limit at top speed (the module docs' third case).
+#[test]
+fn load_sensitive_temperature_moves_the_optimum_to_top_speed() {
+    let m = Milling { q: 0.8, ..EXAMPLE };
+    let o = optimise(&m, &EXAMPLE_ECONOMICS, 0.5).unwrap();
+    println!("{o:?}");
+    assert_eq!(o.active, vec!["temperature", "max speed"], "{o:?}");
 }

@@ -29,19 +29,22 @@ fn report(s: &Study) {
 
 /// 001: with c = 0.5 "the control variables move towards the optimal point from cycle to cycle
 /// without violating the constraints", and Table 2 reaches its final time at cycle 6. Over 100
-/// runs of ten cycles: no part out of specification, and a median of at most six cycles to
-/// come within 5 % of the true model's optimum.
+/// runs of ten cycles: no part out of specification; a median of at most six cycles before a
+/// cycle first comes within 5 % of the true model's noise-robust optimum; and a median gap of
+/// the last three cycles within 5 % ("a few per cent").
 ///
-/// Not every run gets there. As measured: 97 runs by cycle 6, 99 by cycle 10. Seed 76 settles
-/// 6.8 % above its optimum. RCB₂'s noise allowance n_R = 0.2·m is the full width of the
-/// noise, twice the +10 % a part can read above its true value. On a true model with a large
-/// no-load power that extra margin costs more than 5 %. The test asks for 95 of 100.
+/// Not every run gets there or stays there. As measured: 97 runs first come within 5 % by
+/// cycle 6 and 99 by cycle 10 (the test asks for 95); 15 runs end more than 5 % above, seed 76
+/// never comes within it (7.9 % above over its last three cycles). RCB₂ settles with the true
+/// value about 17 % under each limit where the noise needs 10 % (`rcb.rs`, "Where it
+/// settles"), and on a true model with a large no-load power that margin costs more than 5 %.
 #[test]
 fn c_half_converges_in_about_six_cycles_without_violation() {
     let s = study(Policy::rcb2(0.5), RUNS, FIRST_SEED, 10);
     report(&s);
     assert_eq!(s.violations(), 0, "parts out of specification");
     assert!(s.converged_runs() >= 95, "{}", s.converged_runs());
+    assert!(s.median_gap_robust() <= 0.05, "{}", s.median_gap_robust());
     assert!(s.median_cycles() <= 6.0, "{}", s.median_cycles());
     assert_eq!(s.nlp_failures(), 0);
 }
@@ -97,8 +100,9 @@ fn confidence_trades_convergence_for_violations() {
 /// RCB₂ with c = 0.5 on the same seeds, so on the same true models, puts none out.
 ///
 /// Where the margined nominal optimum does stay in specification (40 runs), it is mostly
-/// *faster* than RCB₂: the bias happened to favour it, and RCB₂'s allowance for noise is
-/// twice as wide. The baseline does not stay conservative here: it violates.
+/// *faster* than RCB₂ (checked: in more than half of those runs): the bias happened to favour
+/// it, and RCB₂'s margin is wider than the noise needs. The baseline does not stay
+/// conservative here: it violates.
 #[test]
 fn nominal_optimiser_violates_under_bias() {
     let at_limits = study(Policy::Nominal { margin: 0.0 }, RUNS, FIRST_SEED, 10);
@@ -126,4 +130,6 @@ fn nominal_optimiser_violates_under_bias() {
         "margined nominal optimum in specification in {} runs; slower than RCB2 in {slower} of them",
         safe.len()
     );
+    assert!(2 * slower < safe.len(), "{slower} of {}", safe.len());
+    assert_eq!(rcb.violations(), 0);
 }

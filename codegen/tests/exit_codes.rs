@@ -157,7 +157,16 @@ fn aco_failures() {
         "aco: no cycles",
         &run(&["aco", "--cycles", "0", "--out", &out], &[]),
         2,
-        &["--cycles 0 is outside 1..=1000"],
+        &["--cycles 0 is outside 1..=200"],
+    );
+    expect(
+        "aco: seeds would wrap",
+        &run(
+            &["aco", "--seed", "18446744073709551615", "--out", &out],
+            &[],
+        ),
+        2,
+        &["leaves no room for 100 study runs"],
     );
     expect(
         "aco: output under a regular file",

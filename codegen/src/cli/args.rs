@@ -335,7 +335,8 @@ pub enum Cmd {
         /// the turning plant (needs cargo, like `sim`; uses `--c` and `--seed`).
         #[arg(value_enum, default_value = "rcb2")]
         study: AcoStudy,
-        /// Confidence level c of 001 eq. 13 for both constraints, in [0, 1].
+        /// Confidence level c of 001 eq. 13 for both constraints, in [0, 1], of the printed
+        /// run and the cascade (the study always compares 0.1, 0.5 and 0.9).
         #[arg(long, default_value_t = 0.5)]
         c: f64,
         /// Seed of the printed run; the study's runs use seeds seed, seed+1, ...
