@@ -32,6 +32,23 @@ fn setpoint_spec_is_proved() {
     assert!(r.proved(), "{}", r.table(&plan));
 }
 
+/// In LinuxCNC the reference is a pin the host-side layer writes between parts: the
+/// component generated from the spec has `fr` as a float input pin, next to the spindle load.
+#[test]
+fn the_linuxcnc_component_takes_the_reference_as_a_pin() {
+    let plan = qloop::compile_str(SETPOINT_SPEC, &qloop::Target::default()).expect("compiles");
+    let comp = qloop::gen_linuxcnc(&plan).expect("a component");
+    assert!(
+        comp.lines().any(|l| l.starts_with("pin in float fr ")),
+        "{comp}"
+    );
+    assert!(
+        comp.lines()
+            .any(|l| l.starts_with("pin in float spindle_load ")),
+        "{comp}"
+    );
+}
+
 /// The loop holds the reference it is given: the median force the sensor read over each part
 /// is within 2 % of its F_r, and the part's closed-loop time is at least the time at exactly
 /// F_r in every section (the static model with the plant's true K_s) and at most 3 % above it
