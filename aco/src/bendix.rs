@@ -141,6 +141,13 @@ impl Milling {
         self.theta0 * (n / self.n0).powf(self.p) * (self.tooth_load(v, n) / self.f0).powf(self.q)
     }
 
+    /// The tooth load at which the torque is at its limit: T = U0·F0^m·w·a·z·f_t^(1−m)/(2π)
+    /// solved for f_t (the torque depends on the tooth load only).
+    pub fn torque_limited_tooth_load(&self) -> f64 {
+        let c = self.u0 * self.f0.powf(self.m) * self.width * self.depth * self.teeth / (2.0 * PI);
+        (self.torque_max / c).powf(1.0 / (1.0 - self.m))
+    }
+
     /// Vibration amplitude (in), proportional to the torque.
     pub fn vibration(&self, v: f64, n: f64) -> f64 {
         self.vib_per_torque * self.torque(v, n)

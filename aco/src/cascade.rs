@@ -258,6 +258,7 @@ fn cut(
         ],
     );
     sc.seed = seed;
+    let period = controller.period();
     let trace = run_single(plant, controller, &sc, RunConfig::default())?;
     let col = |n: &str| {
         trace
@@ -280,7 +281,7 @@ fn cut(
         peak,
         fmax,
         force: fc[..cutting].to_vec(),
-        period: t.get(1).copied().unwrap_or(0.0) - t[0],
+        period,
     })
 }
 

@@ -124,8 +124,7 @@ pub fn study_figure(studies: &[Study]) -> Figure {
 /// its limit), for β = 0, 0.5 and 1, with the temperature along the same line: the optimum is
 /// where φ stops rising, at the first limit met.
 pub fn bendix_figure(m: &crate::bendix::Milling, e: &crate::bendix::Economics) -> Figure {
-    let c = m.u0 * m.f0.powf(m.m) * m.width * m.depth * m.teeth / (2.0 * std::f64::consts::PI);
-    let ft = (m.torque_max / c).powf(1.0 / (1.0 - m.m));
+    let ft = m.torque_limited_tooth_load();
     let steps = 200;
     let n: Vec<f64> = (0..=steps)
         .map(|i| m.speed.0 + (m.speed.1 - m.speed.0) * i as f64 / steps as f64)

@@ -70,26 +70,40 @@ pub fn run_table(run: &Run) -> String {
             let _ = writeln!(s, "true model's optimum: no solution");
         }
     }
-    let bad: Vec<String> = run
-        .cycles
-        .iter()
-        .filter(|c| c.excess() > 0.0)
-        .map(|c| format!("cycle {} by {:.3}", c.index, c.excess()))
+    outcomes(
+        &mut s,
+        "cycle",
+        "the next cycle went back to the first settings",
+        run.cycles
+            .iter()
+            .map(|c| (c.index, c.excess(), c.nlp_error.as_deref())),
+    );
+    s
+}
+
+/// The closing lines of a run's table: which parts were out of specification and by how much,
+/// and which re-optimisations had no solution. `items` are (number, excess, NLP error).
+fn outcomes<'a>(
+    s: &mut String,
+    noun: &str,
+    fallback: &str,
+    items: impl Iterator<Item = (usize, f64, Option<&'a str>)> + Clone,
+) {
+    let bad: Vec<String> = items
+        .clone()
+        .filter(|(_, e, _)| *e > 0.0)
+        .map(|(i, e, _)| format!("{noun} {i} by {e:.3}"))
         .collect();
     if bad.is_empty() {
         let _ = writeln!(s, "no part out of specification");
     } else {
         let _ = writeln!(s, "out of specification (!): {}", bad.join(", "));
     }
-    for c in run.cycles.iter().filter(|c| c.nlp_error.is_some()) {
-        let _ = writeln!(
-            s,
-            "cycle {}: settings kept, {}",
-            c.index,
-            c.nlp_error.as_deref().unwrap_or("")
-        );
+    for (i, _, err) in items {
+        if let Some(err) = err {
+            let _ = writeln!(s, "{noun} {i}: no solution, {fallback}: {err}");
+        }
     }
-    s
 }
 
 /// One run as CSV, one line per cycle, with 001's Table 2 columns where it has the row.
@@ -179,7 +193,7 @@ pub fn study_table(studies: &[Study]) -> String {
     if failures > 0 {
         let _ = writeln!(
             s,
-            "{failures} cycles kept their settings because the next program had no solution"
+            "{failures} cycles had no solution for the next program and went back to the first settings"
         );
     }
     s
@@ -270,7 +284,7 @@ pub fn cascade_table(run: &crate::cascade::CascadeRun) -> String {
         .collect();
     let _ = writeln!(
         s,
-        "RCB2 (c = {} for the peak force, {} for the roughness) sets the force reference F_r of the generated Koren-Masory loop per part; the loop holds it on the turning plant",
+        "RCB2 (c = {} for the peak force, {} for the roughness) sets the force reference F_r of the generated Koren-Masory loop per part; each part is cut in closed loop on the turning plant",
         c.confidence[0], c.confidence[1]
     );
     let _ = writeln!(
@@ -309,25 +323,14 @@ pub fn cascade_table(run: &crate::cascade::CascadeRun) -> String {
             p.buffers[1]
         );
     }
-    let out: Vec<String> = run
-        .parts
-        .iter()
-        .filter(|p| p.excess() > 0.0)
-        .map(|p| format!("part {} by {:.3}", p.index, p.excess()))
-        .collect();
-    if out.is_empty() {
-        let _ = writeln!(s, "no part out of specification");
-    } else {
-        let _ = writeln!(s, "out of specification (!): {}", out.join(", "));
-    }
-    for p in run.parts.iter().filter(|p| p.nlp_error.is_some()) {
-        let _ = writeln!(
-            s,
-            "part {}: F_r kept, {}",
-            p.index,
-            p.nlp_error.as_deref().unwrap_or("")
-        );
-    }
+    outcomes(
+        &mut s,
+        "part",
+        "the next part went back to the first F_r",
+        run.parts
+            .iter()
+            .map(|p| (p.index, p.excess(), p.nlp_error.as_deref())),
+    );
     s
 }
 

@@ -451,17 +451,24 @@ mod tests {
         assert!((p.p.ks - 2.331).abs() < 0.001, "{}", p.p.ks);
     }
 
-    #[test]
-    fn servo_is_an_exact_first_order_lag_after_one_period() {
-        let mut p = Turning::new(TurningParams::default());
-        let sc = scenario_named("depth-steps").unwrap();
+    /// Commands 1 mm/s at t = 0 and advances 1 ms steps up to the end of the command delay
+    /// (0.1 s); returns the time reached.
+    fn until_the_delay(p: &mut Turning, sc: &Scenario) -> f64 {
         p.command_at(0.0, 1.0);
         let h = 0.001;
         let mut t = 0.0;
         while t < 0.0995 {
-            p.advance(&sc, t, h);
+            p.advance(sc, t, h);
             t += h;
         }
+        t
+    }
+
+    #[test]
+    fn servo_is_an_exact_first_order_lag_after_one_period() {
+        let mut p = Turning::new(TurningParams::default());
+        let sc = scenario_named("depth-steps").unwrap();
+        let (h, mut t) = (0.001, until_the_delay(&mut p, &sc));
         assert_eq!(p.v, 0.0, "no motion before the delay");
         for _ in 0..20 {
             p.advance(&sc, t, h);
@@ -482,13 +489,7 @@ mod tests {
             ..TurningParams::default()
         });
         let sc = scenario_named("depth-steps").unwrap();
-        p.command_at(0.0, 1.0);
-        let h = 0.001;
-        let mut t = 0.0;
-        while t < 0.0995 {
-            p.advance(&sc, t, h);
-            t += h;
-        }
+        let (h, mut t) = (0.001, until_the_delay(&mut p, &sc));
         assert_eq!(p.x, 0.0);
         assert_eq!(p.depth(&sc, t), 2.0);
         for _ in 0..60 {

@@ -1,6 +1,6 @@
 //! The command line's definition (clap): the commands, their flags and their documentation.
 
-use clap::{Parser, Subcommand, ValueEnum};
+use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 
 #[derive(Parser)]
@@ -327,34 +327,7 @@ pub enum Cmd {
     /// Table 2, then runs a seeded study of confidence levels 0.1, 0.5 and 0.9 against the
     /// nominal optimiser without buffers (001, Figs. 5 and 6). Writes the table, CSV files and
     /// plots to the output directory.
-    Aco {
-        /// `rcb2`: 001's RCB2 (the default); `bendix`: 002's Bendix ACO index (eqs. 1-3)
-        /// maximised over feedrate and spindle speed for beta = 0, 0.5 and 1 on an example
-        /// milling cut; `cascade`: RCB2 sets the force reference of the generated
-        /// Koren-Masory loop for each of `--cycles` parts, each part cut in closed loop on
-        /// the turning plant (needs cargo, like `sim`; uses `--c` and `--seed`).
-        #[arg(value_enum, default_value = "rcb2")]
-        study: AcoStudy,
-        /// Confidence level c of 001 eq. 13 for both constraints, in [0, 1], of the printed
-        /// run and the cascade (the study always compares 0.1, 0.5 and 0.9).
-        #[arg(long, default_value_t = 0.5)]
-        c: f64,
-        /// Seed of the printed run; the study's runs use seeds seed, seed+1, ...
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Cycles (parts) of the printed run.
-        #[arg(long, default_value_t = 10)]
-        cycles: usize,
-        /// Seeded runs per policy in the study (0 skips the study).
-        #[arg(long, default_value_t = 100)]
-        runs: usize,
-        /// Cycles per run in the study.
-        #[arg(long, default_value_t = 20)]
-        study_cycles: usize,
-        /// Output directory.
-        #[arg(long, default_value = "qloop-aco")]
-        out: PathBuf,
-    },
+    Aco(AcoArgs),
     /// List the built-in cost-model targets.
     Targets,
     /// qloop's safety-rule libraries (`use feed_safety;` in a spec): every rule with its
@@ -369,6 +342,37 @@ pub enum Cmd {
         /// One plant (default: all).
         plant: Option<String>,
     },
+}
+
+/// The options of `qloop aco`.
+#[derive(Args)]
+pub struct AcoArgs {
+    /// `rcb2`: 001's RCB2 (the default); `bendix`: 002's Bendix ACO index (eqs. 1-3)
+    /// maximised over feedrate and spindle speed for beta = 0, 0.5 and 1 on an example
+    /// milling cut; `cascade`: RCB2 sets the force reference of the generated
+    /// Koren-Masory loop for each of `--cycles` parts, each part cut in closed loop on
+    /// the turning plant (needs cargo, like `sim`; uses `--c` and `--seed`).
+    #[arg(value_enum, default_value = "rcb2")]
+    pub study: AcoStudy,
+    /// Confidence level c of 001 eq. 13 for both constraints, in [0, 1], of the printed
+    /// run and the cascade (the study always compares 0.1, 0.5 and 0.9).
+    #[arg(long, default_value_t = 0.5)]
+    pub c: f64,
+    /// Seed of the printed run; the study's runs use seeds seed, seed+1, ...
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Cycles (parts) of the printed run.
+    #[arg(long, default_value_t = 10)]
+    pub cycles: usize,
+    /// Seeded runs per policy in the study (0 skips the study).
+    #[arg(long, default_value_t = 100)]
+    pub runs: usize,
+    /// Cycles per run in the study.
+    #[arg(long, default_value_t = 20)]
+    pub study_cycles: usize,
+    /// Output directory.
+    #[arg(long, default_value = "qloop-aco")]
+    pub out: PathBuf,
 }
 
 /// `qloop aco STUDY`.

@@ -19,7 +19,7 @@ const NAME: &str = "koren_masory_1981.qloop";
 const TUNED: &str = "koren_masory_tuned.qloop";
 
 /// A built-in spec's plan; it always compiles, so a failure is qloop's bug.
-fn builtin(src: &str, name: &str) -> CliResult<Plan> {
+pub(crate) fn builtin(src: &str, name: &str) -> CliResult<Plan> {
     qloop::compile_str(src, &Target::default()).map_err(|d| {
         CliError::tool(format!(
             "internal: the built-in spec {name} does not compile:\n{}",
