@@ -1,7 +1,7 @@
 //! 001's findings (Ivester & Danai), reproduced on the reconstructed turning model over 100
 //! seeded runs with 10 % model bias and noise in [0.9, 1.1] (001's simulation section).
 //!
-//! Each test prints what it measured (`cargo test -p qloop-aco --test paper_rcb2 --
+//! Each test prints what it measured (`cargo test -p qloop-aco --test integration paper_rcb2:: --
 //! --nocapture`); `qloop aco` prints the same study.
 
 use qloop_aco::paper::TABLE2;

@@ -61,19 +61,6 @@ fn step_body(src: &str) -> &str {
     &rest[..end]
 }
 
-/// Every seed spec's file name, sorted.
-fn seed_specs() -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(root().join("verified/specs"))
-        .expect("verified/specs")
-        .filter_map(|e| e.ok())
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".qloop"))
-        .collect();
-    v.sort();
-    assert!(v.len() >= 6, "seed specs missing: {v:?}");
-    v
-}
-
 /// The length `N` of the module's `const NAME: [T; N]`.
 fn const_array_len(src: &str, name: &str) -> Option<usize> {
     let decl = format!("const {name}: [");
@@ -118,26 +105,33 @@ fn unsafe_index<'a>(src: &str, step: &'a str) -> Option<&'a str> {
     None
 }
 
-#[test]
-fn generated_step_has_no_division_modulo_or_float() {
-    for s in seed_specs() {
-        let o = qloop(&["gen", &spec(&s), "--lang", "rust"]);
-        assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
-        let src = text(&o.stdout);
-        let step = step_body(&src);
-        assert!(
-            step.contains("<<") || step.contains(">>"),
-            "no shifts in {s}?"
-        );
-        for bad in ["/", "%", "f32", "f64", "unwrap", "expect", "panic"] {
-            assert!(!step.contains(bad), "`{bad}` in step of {s}:\n{step}");
-        }
-        if let Some(line) = unsafe_index(&src, step) {
-            panic!("an index that may panic in step of {s}: `{}`", line.trim());
-        }
-        assert!(src.contains("pub const fn new()") && src.contains("pub struct Controller"));
-        assert!(src.contains("::fixed::Fixed"), "fixed types at the API");
+/// The generated step of the seed spec has no division, modulo, float or panicking path.
+fn generated_step_has_no_division_modulo_or_float(stem: &str) {
+    let s = format!("{stem}.qloop");
+    let o = qloop(&["gen", &spec(&s), "--lang", "rust"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let src = text(&o.stdout);
+    let step = step_body(&src);
+    assert!(
+        step.contains("<<") || step.contains(">>"),
+        "no shifts in {s}?"
+    );
+    for bad in ["/", "%", "f32", "f64", "unwrap", "expect", "panic"] {
+        assert!(!step.contains(bad), "`{bad}` in step of {s}:\n{step}");
     }
+    if let Some(line) = unsafe_index(&src, step) {
+        panic!("an index that may panic in step of {s}: `{}`", line.trim());
+    }
+    assert!(src.contains("pub const fn new()") && src.contains("pub struct Controller"));
+    assert!(src.contains("::fixed::Fixed"), "fixed types at the API");
+}
+test_tools::spec_tests! {
+    generated_step_has_no_division_modulo_or_float in "verified/specs";
+    default: [
+        acc_fixed_gain, gac_surface_finish, grinding_adaptive_pzc, grinding_pi, koren_masory_1981,
+        koren_masory_safe, koren_masory_tuned, milling_acc,
+    ];
+    acceptance: [milling_multimodel];
 }
 
 /// The index check accepts what the emitter writes and catches what could panic.
@@ -255,7 +249,9 @@ fn gen_writes_output_file_atomically() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+// The whole demo in a debug build, its proofs uncached: about 45 s (.ci/run also runs it in release).
 #[test]
+#[ignore = "acceptance tier (README, Tests)"]
 fn demo_writes_check_and_code() {
     let dir = std::env::temp_dir().join(format!("qloop-demo-{}", std::process::id()));
     let o = qloop(&["demo", "--out", dir.to_str().unwrap()]);

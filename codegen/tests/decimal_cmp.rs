@@ -39,7 +39,7 @@ fn finite() -> impl Strategy<Value = f64> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(4000))]
+    #![proptest_config(ProptestConfig::with_cases(test_tools::cases(4000)))]
 
     /// Decimals printed from `v` or a neighbour, at every precision the reports use.
     #[test]

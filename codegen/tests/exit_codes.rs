@@ -10,8 +10,7 @@
 //! Only the refuted proof and the `--json` write after a proof need z3 or cvc5; `sim` and
 //! `sweep` cases that fail after the controller is compiled need cargo (as `tests/sim.rs`).
 
-mod common;
-use common::{spec, text};
+use crate::common::{spec, text};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 

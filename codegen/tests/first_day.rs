@@ -4,8 +4,7 @@
 //! speed-scheduled minimum of a force and a power proposal) each go through `check`, `gen`
 //! (Rust, C, LinuxCNC), `prove`, `sim` and `bench`, with the binary, as the user ran them.
 
-mod common;
-use common::{qloop, text};
+use crate::common::{qloop, text};
 use std::path::{Path, PathBuf};
 use test_tools::{find, skip};
 

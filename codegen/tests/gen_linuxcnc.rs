@@ -1,9 +1,7 @@
 //! `qloop gen --lang linuxcnc`: where it writes the component, which target it plans for, and
 //! how it refuses what it cannot write.
 
-mod common;
-
-use common::{qloop, spec, text};
+use crate::common::{qloop, spec, text};
 use std::path::PathBuf;
 
 fn scratch(name: &str) -> PathBuf {

@@ -8,7 +8,7 @@ use proptest::prelude::*;
 use qloop::Target;
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(300))]
+    #![proptest_config(ProptestConfig::with_cases(test_tools::cases(300)))]
 
     #[test]
     fn mutated_specs_never_panic(cut in 0usize..2000, len in 0usize..6, with in prop::sample::select(vec![

@@ -2,8 +2,7 @@
 //! the spec must behave bit for bit like the same spec compiled by `controller!` into
 //! `qloop-verified`, and bad requests must fail with a clear message, never a panic.
 
-mod common;
-use common::{qloop, spec, text};
+use crate::common::{qloop, spec, text};
 use qloop_plant::turning::{scenario_named, Turning, TurningParams};
 use qloop_plant::{fixed_controller, reference_controller, run, RunConfig};
 use std::path::{Path, PathBuf};

@@ -3,8 +3,7 @@
 //! `--check` fails on an unstable loop, and a spec the plant cannot run is refused before
 //! anything is compiled, with the contract in the message.
 
-mod common;
-use common::{qloop, text};
+use crate::common::{qloop, text};
 use std::path::{Path, PathBuf};
 
 fn tmp(name: &str) -> PathBuf {

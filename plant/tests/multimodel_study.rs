@@ -1,7 +1,7 @@
 //! Design study for issue 17: 003's multi-model controller, as the f64 oracle
 //! `qloop_plant::multimodel`, on the milling plant driven through the *active* β-FROH (the
 //! hold is part of the loop: 003 Fig. 3), against the ZOH-only design (β = 0, one
-//! estimator). `cargo test -p qloop-plant --test multimodel_study -- --nocapture` prints the
+//! estimator). `cargo test -p qloop-plant --test integration multimodel_study:: -- --nocapture` prints the
 //! per-segment table and, with `MM_TRACE=1`, the active estimate and law every 2 s.
 //!
 //! What it shows (2026-11-27; findings in the issue's notes): on the milling plant both

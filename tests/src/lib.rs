@@ -10,7 +10,9 @@ pub mod snapshot;
 
 use qloop::ir::SigId;
 use qloop::{Plan, Target};
+use std::collections::BTreeMap;
 use std::path::PathBuf;
+use std::sync::{Mutex, OnceLock};
 
 /// A prover configuration with both solvers, two jobs, no cache and the given per-query time
 /// limit; panics (with how to install them) when z3 or cvc5 is missing.
@@ -79,10 +81,33 @@ pub fn corpus_expectation(src: &str) -> Option<(usize, usize, String)> {
     ))
 }
 
+/// The source text of a seed spec.
+pub fn spec_source(stem: &str) -> String {
+    let path = specs_dir().join(format!("{stem}.qloop"));
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// The harness module `qloop gen --lang kani` writes for a seed spec (default target),
+/// generated once per test process and kept: the workspace's integration tests are one
+/// binary, so the multi-model controller's 27 MB module is generated once per run however many
+/// tests read it. Tests that ask for the same spec at once wait for one generation; different
+/// specs generate in parallel. (Plans hold `proc_macro2` spans, which are neither `Send` nor
+/// `Sync`, so they are compiled where they are used.)
+pub fn kani_text(stem: &str) -> &'static str {
+    static KANI: Mutex<BTreeMap<String, &'static OnceLock<String>>> = Mutex::new(BTreeMap::new());
+    // One cell per spec, leaked so that the text lives as long as the process.
+    let cell: &'static OnceLock<String> = KANI
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .entry(stem.to_string())
+        .or_insert_with(|| Box::leak(Box::default()));
+    cell.get_or_init(|| qloop::gen_kani(&plan(stem)))
+}
+
 /// The compiled plan of a seed spec, for the default target.
 pub fn plan(stem: &str) -> Plan {
-    let src = std::fs::read_to_string(specs_dir().join(format!("{stem}.qloop"))).unwrap();
-    qloop::compile_str(&src, &Target::default()).unwrap_or_else(|e| panic!("{stem}: {e}"))
+    qloop::compile_str(&spec_source(stem), &Target::default())
+        .unwrap_or_else(|e| panic!("{stem}: {e}"))
 }
 
 /// The id of the signal called `name`.
@@ -98,9 +123,8 @@ pub fn sig(plan: &Plan, name: &str) -> SigId {
 
 /// The compiled plan of a seed spec for a built-in target.
 pub fn plan_for(stem: &str, target: &str) -> Plan {
-    let src = std::fs::read_to_string(specs_dir().join(format!("{stem}.qloop"))).unwrap();
     let t = qloop::targets::by_name(target).unwrap_or_else(|| panic!("no target {target}"));
-    qloop::compile_str(&src, &t).unwrap_or_else(|e| panic!("{stem}: {e}"))
+    qloop::compile_str(&spec_source(stem), &t).unwrap_or_else(|e| panic!("{stem}: {e}"))
 }
 
 /// Seed spec stems, sorted.

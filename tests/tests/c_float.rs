@@ -261,26 +261,6 @@ fn spec_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../verified/specs")
 }
 
-/// Every seed spec, compiled: `(file name, plan)`.
-fn seed_specs() -> Vec<(String, Plan)> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(spec_dir())
-        .expect("verified/specs")
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "qloop"))
-        .collect();
-    files.sort();
-    assert!(files.len() >= 4, "seed specs missing: {files:?}");
-    files
-        .into_iter()
-        .map(|p| {
-            let src = std::fs::read_to_string(&p).expect("read spec");
-            let plan = qloop::compile_str(&src, &Target::default())
-                .unwrap_or_else(|e| panic!("{}: {e:?}", p.display()));
-            (p.display().to_string(), plan)
-        })
-        .collect()
-}
-
 // ---------------------------------------------------------------------------------------
 // Single-precision error bound of one step.
 // ---------------------------------------------------------------------------------------
@@ -732,77 +712,88 @@ fn check_step(
     }
 }
 
-#[test]
-fn float_step_matches_the_f64_reference_for_every_seed_spec() {
+/// The float C of the seed spec matches its f64 reference within the float error bound.
+fn float_step_matches_the_f64_reference(stem: &str) {
     if !have_gcc() {
         return;
     }
-    for (file, plan) in seed_specs() {
-        let prog = &plan.prog;
-        let r = reference(&prog.name);
-        let names =
-            |k: SigKind| -> Vec<String> { prog.ids_of(k).map(|id| prog.sig(id).label()).collect() };
-        assert_eq!(names(SigKind::Input), r.inputs, "{file}: inputs");
-        assert_eq!(names(SigKind::State), r.states, "{file}: states");
-        assert_eq!(names(SigKind::Output), r.outputs, "{file}: outputs");
-        let (bounds, newton) = step_error_analysis(prog);
-        // Every `newton_recip` is bounded as Newton steps (else its interval bound, sound but
-        // far too wide to check anything, would silently stand in).
-        for r in &prog.recips {
-            assert!(
-                newton.iterates.contains_key(&r.r),
-                "{file}: `{}` is not recognised as a newton_recip result",
-                prog.sig(r.r).label()
-            );
-        }
-        let exe = build_float(&plan);
-
-        // 1. Initial state: each value the nearest float to the reference's.
-        let init = run_stdin(&exe, "I\n");
-        let want_init = (r.init)();
-        assert_eq!(floats(&init), fmt_f32(&want_init), "{file}: init");
-
-        // 2. One step from 400 random states and inputs (inputs partly out of range).
-        let mut rng = Rng(0x5EED ^ prog.name.len() as u64);
-        let mut script = String::new();
-        let mut cases = Vec::new();
-        for _ in 0..400 {
-            let st = draw(&mut rng, &plan, SigKind::State);
-            let inp = draw(&mut rng, &plan, SigKind::Input);
-            script.push_str(&format!("S{}\nX{}\n", fmt_vals(&st), fmt_vals(&inp)));
-            cases.push((st, inp));
-        }
-        // 3. Along the reference's own trajectory from the initial state: 300 steps of random
-        //    inputs, each step started from the reference's state rounded to float on both
-        //    sides (a free-running float loop would compare accumulated drift instead).
-        let mut st = want_init.clone();
-        for _ in 0..300 {
-            let st32 = fmt_f32(&st);
-            let inp = draw(&mut rng, &plan, SigKind::Input);
-            script.push_str(&format!("S{}\nX{}\n", fmt_vals(&st32), fmt_vals(&inp)));
-            st = (r.step)(&st, &inp).1;
-            cases.push((st32, inp));
-        }
-        let out = run_stdin(&exe, &script);
-        let lines: Vec<&str> = out.lines().collect();
-        assert_eq!(lines.len(), cases.len(), "{file}: driver output");
-        let mut worst = 0.0f64;
-        for (k, ((st, inp), line)) in cases.iter().zip(&lines).enumerate() {
-            let (o, s) = (r.step)(st, inp);
-            let case = format!("case {k}: states {st:?}, inputs {inp:?}");
-            check_step(&file, &case, prog, &bounds, line, &o, &s, &mut worst);
-        }
-        let mut branches = Vec::new();
-        branch_signals(prog, &prog.body, &mut branches);
-        println!(
-            "{}: {} steps within the float bound (worst |diff| = {:.3} of the bound; \
-             branches on {:?})",
-            prog.name,
-            cases.len(),
-            worst,
-            branches
+    let file = spec_dir()
+        .join(format!("{stem}.qloop"))
+        .display()
+        .to_string();
+    let plan = qloop_tests::plan(stem);
+    let prog = &plan.prog;
+    let r = reference(&prog.name);
+    let names =
+        |k: SigKind| -> Vec<String> { prog.ids_of(k).map(|id| prog.sig(id).label()).collect() };
+    assert_eq!(names(SigKind::Input), r.inputs, "{file}: inputs");
+    assert_eq!(names(SigKind::State), r.states, "{file}: states");
+    assert_eq!(names(SigKind::Output), r.outputs, "{file}: outputs");
+    let (bounds, newton) = step_error_analysis(prog);
+    // Every `newton_recip` is bounded as Newton steps (else its interval bound, sound but
+    // far too wide to check anything, would silently stand in).
+    for r in &prog.recips {
+        assert!(
+            newton.iterates.contains_key(&r.r),
+            "{file}: `{}` is not recognised as a newton_recip result",
+            prog.sig(r.r).label()
         );
     }
+    let exe = build_float(&plan);
+
+    // 1. Initial state: each value the nearest float to the reference's.
+    let init = run_stdin(&exe, "I\n");
+    let want_init = (r.init)();
+    assert_eq!(floats(&init), fmt_f32(&want_init), "{file}: init");
+
+    // 2. One step from 400 random states and inputs (inputs partly out of range).
+    let mut rng = Rng(0x5EED ^ prog.name.len() as u64);
+    let mut script = String::new();
+    let mut cases = Vec::new();
+    for _ in 0..400 {
+        let st = draw(&mut rng, &plan, SigKind::State);
+        let inp = draw(&mut rng, &plan, SigKind::Input);
+        script.push_str(&format!("S{}\nX{}\n", fmt_vals(&st), fmt_vals(&inp)));
+        cases.push((st, inp));
+    }
+    // 3. Along the reference's own trajectory from the initial state: 300 steps of random
+    //    inputs, each step started from the reference's state rounded to float on both
+    //    sides (a free-running float loop would compare accumulated drift instead).
+    let mut st = want_init.clone();
+    for _ in 0..300 {
+        let st32 = fmt_f32(&st);
+        let inp = draw(&mut rng, &plan, SigKind::Input);
+        script.push_str(&format!("S{}\nX{}\n", fmt_vals(&st32), fmt_vals(&inp)));
+        st = (r.step)(&st, &inp).1;
+        cases.push((st32, inp));
+    }
+    let out = run_stdin(&exe, &script);
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(lines.len(), cases.len(), "{file}: driver output");
+    let mut worst = 0.0f64;
+    for (k, ((st, inp), line)) in cases.iter().zip(&lines).enumerate() {
+        let (o, s) = (r.step)(st, inp);
+        let case = format!("case {k}: states {st:?}, inputs {inp:?}");
+        check_step(&file, &case, prog, &bounds, line, &o, &s, &mut worst);
+    }
+    let mut branches = Vec::new();
+    branch_signals(prog, &prog.body, &mut branches);
+    println!(
+        "{}: {} steps within the float bound (worst |diff| = {:.3} of the bound; \
+         branches on {:?})",
+        prog.name,
+        cases.len(),
+        worst,
+        branches
+    );
+}
+test_tools::spec_tests! {
+    float_step_matches_the_f64_reference in "verified/specs";
+    default: [
+        acc_fixed_gain, grinding_adaptive_pzc, grinding_pi, koren_masory_1981, koren_masory_safe,
+        koren_masory_tuned, milling_acc,
+    ];
+    acceptance: [gac_surface_finish, milling_multimodel];
 }
 
 fn fmt_f32(v: &[f64]) -> Vec<f64> {

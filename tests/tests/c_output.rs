@@ -18,7 +18,7 @@
 use qloop::interp::step_fixed;
 use qloop::ir::SigKind;
 use qloop_tests::c_harness::{self, fixed_driver_exe, ids, raw_input, run_lines, Rng};
-use qloop_tests::{plan_for, scratch, spec_stems, tool};
+use qloop_tests::{plan_for, scratch, tool};
 use std::fmt::Write;
 
 /// Every built-in target with a C compiler (`targets/*.toml`: its compiler and flags, the same
@@ -31,16 +31,22 @@ fn targets() -> Vec<(String, String)> {
         .collect()
 }
 
-#[test]
-fn c_compiles_without_warnings_for_every_target() {
+/// The seed spec's C compiles without a warning for every target whose compiler is installed.
+fn c_compiles_without_warnings_for_every_target(stem: &str) {
     for (target, cc) in targets() {
         let Some(cc) = tool(&cc) else { continue };
-        for stem in spec_stems() {
-            let plan = plan_for(&stem, &target);
-            let dir = scratch(&format!("c-warn-{target}-{stem}"));
-            c_harness::warning_free(&plan, &cc, &dir);
-        }
+        let plan = plan_for(stem, &target);
+        let dir = scratch(&format!("c-warn-{target}-{stem}"));
+        c_harness::warning_free(&plan, &cc, &dir);
     }
+}
+test_tools::spec_tests! {
+    c_compiles_without_warnings_for_every_target in "verified/specs";
+    default: [grinding_pi, koren_masory_1981];
+    acceptance: [
+        acc_fixed_gain, gac_surface_finish, grinding_adaptive_pzc, koren_masory_safe,
+        koren_masory_tuned, milling_acc, milling_multimodel,
+    ];
 }
 
 /// The `qloop-verified` module of a seed spec, run from its initial state on raw inputs:
@@ -74,102 +80,130 @@ fn rust_trajectory(stem: &str, inputs: &[Vec<i64>]) -> Vec<Vec<i64>> {
     }
 }
 
-#[test]
-fn c_matches_the_rust_output_bit_for_bit() {
+fn c_matches_the_rust_output_bit_for_bit(stem: &str) {
     let Some(gcc) = tool("gcc") else { return };
-    for stem in spec_stems() {
-        // Plans differ per target only in how they multiply; every target's C must compute
-        // the same function as the Rust compiled for the default target.
-        for (target, ..) in targets() {
-            let plan = plan_for(&stem, &target);
-            let dir = scratch(&format!("c-diff-{target}-{stem}"));
-            let mut rng = Rng(0x2545_f491_4f6c_dd1d ^ stem.len() as u64);
-            let inputs: Vec<Vec<i64>> = (0..20_000)
-                .map(|_| {
-                    ids(&plan, SigKind::Input)
-                        .iter()
-                        .map(|id| raw_input(&plan, *id, &mut rng) as i64)
-                        .collect()
-                })
+    // Plans differ per target only in how they multiply; every target's C must compute
+    // the same function as the Rust compiled for the default target, on the same 20,000
+    // random inputs (drawn once: the inputs' formats do not depend on the target).
+    let inputs_of = |plan: &qloop::Plan| -> Vec<String> {
+        ids(plan, SigKind::Input)
+            .iter()
+            .map(|id| format!("{:?}", plan.format(*id)))
+            .collect()
+    };
+    let default = qloop_tests::plan(stem);
+    let mut rng = Rng(0x2545_f491_4f6c_dd1d ^ stem.len() as u64);
+    let inputs: Vec<Vec<i64>> = (0..20_000)
+        .map(|_| {
+            ids(&default, SigKind::Input)
+                .iter()
+                .map(|id| raw_input(&default, *id, &mut rng) as i64)
+                .collect()
+        })
+        .collect();
+    let mut script = String::new();
+    for i in &inputs {
+        script.push('I');
+        for v in i {
+            let _ = write!(script, " {v}");
+        }
+        script.push('\n');
+    }
+    let rust = rust_trajectory(stem, &inputs);
+    for (target, ..) in targets() {
+        let plan = plan_for(stem, &target);
+        assert_eq!(
+            inputs_of(&plan),
+            inputs_of(&default),
+            "{stem}/{target}: the inputs' formats depend on the target"
+        );
+        let dir = scratch(&format!("c-diff-{target}-{stem}"));
+        let c: Vec<Vec<i64>> = run_lines(&fixed_driver_exe(&plan, &gcc, &dir), &script);
+        assert_eq!(c.len(), rust.len(), "{stem}/{target}: step count");
+        for (k, (a, b)) in c.iter().zip(&rust).enumerate() {
+            assert_eq!(
+                a, b,
+                "{stem}/{target}: step {k}, inputs {:?}: C {a:?} vs Rust {b:?}",
+                inputs[k]
+            );
+        }
+    }
+}
+test_tools::spec_tests! {
+    c_matches_the_rust_output_bit_for_bit in "verified/specs";
+    default: [grinding_pi, koren_masory_1981];
+    acceptance: [
+        acc_fixed_gain, gac_surface_finish, grinding_adaptive_pzc, koren_masory_safe,
+        koren_masory_tuned, milling_acc, milling_multimodel,
+    ];
+}
+
+fn c_matches_the_interpreter_from_any_state(stem: &str) {
+    let Some(gcc) = tool("gcc") else { return };
+    for (target, ..) in targets() {
+        let plan = plan_for(stem, &target);
+        let dir = scratch(&format!("c-interp-{target}-{stem}"));
+        let (states, inputs) = (ids(&plan, SigKind::State), ids(&plan, SigKind::Input));
+        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+        let mut script = String::new();
+        let mut want = Vec::new();
+        for case in 0..5_000 {
+            let mut vars = vec![0i128; plan.prog.signals.len()];
+            for (k, id) in states.iter().enumerate() {
+                let (lo, hi) = plan.raw_bounds(*id).unwrap();
+                vars[id.0] = match case {
+                    0..4 if (case >> (k % 2)) & 1 == 0 => lo,
+                    0..4 => hi,
+                    _ => rng.in_range(lo, hi),
+                };
+            }
+            for id in &inputs {
+                vars[id.0] = raw_input(&plan, *id, &mut rng);
+            }
+            script.push('S');
+            for id in &states {
+                let _ = write!(script, " {}", vars[id.0]);
+            }
+            script.push_str("\nI");
+            for id in &inputs {
+                let _ = write!(script, " {}", vars[id.0]);
+            }
+            script.push('\n');
+            step_fixed(&plan, &mut vars).unwrap_or_else(|e| panic!("{stem}: {e:?}"));
+            let row: Vec<i64> = ids(&plan, SigKind::Output)
+                .iter()
+                .chain(&states)
+                .map(|id| vars[id.0] as i64)
                 .collect();
-            let mut script = String::new();
-            for i in &inputs {
-                script.push('I');
-                for v in i {
-                    let _ = write!(script, " {v}");
-                }
-                script.push('\n');
-            }
-            let c: Vec<Vec<i64>> = run_lines(&fixed_driver_exe(&plan, &gcc, &dir), &script);
-            let rust = rust_trajectory(&stem, &inputs);
-            assert_eq!(c.len(), rust.len(), "{stem}/{target}: step count");
-            for (k, (a, b)) in c.iter().zip(&rust).enumerate() {
-                assert_eq!(
-                    a, b,
-                    "{stem}/{target}: step {k}, inputs {:?}: C {a:?} vs Rust {b:?}",
-                    inputs[k]
-                );
-            }
+            want.push(row);
         }
+        let got: Vec<Vec<i64>> = run_lines(&fixed_driver_exe(&plan, &gcc, &dir), &script);
+        assert_eq!(got, want, "{stem}/{target}");
     }
 }
-
-#[test]
-fn c_matches_the_interpreter_from_any_state() {
-    let Some(gcc) = tool("gcc") else { return };
-    for stem in spec_stems() {
-        for (target, ..) in targets() {
-            let plan = plan_for(&stem, &target);
-            let dir = scratch(&format!("c-interp-{target}-{stem}"));
-            let (states, inputs) = (ids(&plan, SigKind::State), ids(&plan, SigKind::Input));
-            let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
-            let mut script = String::new();
-            let mut want = Vec::new();
-            for case in 0..5_000 {
-                let mut vars = vec![0i128; plan.prog.signals.len()];
-                for (k, id) in states.iter().enumerate() {
-                    let (lo, hi) = plan.raw_bounds(*id).unwrap();
-                    vars[id.0] = match case {
-                        0..4 if (case >> (k % 2)) & 1 == 0 => lo,
-                        0..4 => hi,
-                        _ => rng.in_range(lo, hi),
-                    };
-                }
-                for id in &inputs {
-                    vars[id.0] = raw_input(&plan, *id, &mut rng);
-                }
-                script.push('S');
-                for id in &states {
-                    let _ = write!(script, " {}", vars[id.0]);
-                }
-                script.push_str("\nI");
-                for id in &inputs {
-                    let _ = write!(script, " {}", vars[id.0]);
-                }
-                script.push('\n');
-                step_fixed(&plan, &mut vars).unwrap_or_else(|e| panic!("{stem}: {e:?}"));
-                let row: Vec<i64> = ids(&plan, SigKind::Output)
-                    .iter()
-                    .chain(&states)
-                    .map(|id| vars[id.0] as i64)
-                    .collect();
-                want.push(row);
-            }
-            let got: Vec<Vec<i64>> = run_lines(&fixed_driver_exe(&plan, &gcc, &dir), &script);
-            assert_eq!(got, want, "{stem}/{target}");
-        }
-    }
+test_tools::spec_tests! {
+    c_matches_the_interpreter_from_any_state in "verified/specs";
+    default: [grinding_pi, koren_masory_1981];
+    acceptance: [
+        acc_fixed_gain, gac_surface_finish, grinding_adaptive_pzc, koren_masory_safe,
+        koren_masory_tuned, milling_acc, milling_multimodel,
+    ];
 }
 
-#[test]
-fn c_is_free_of_runtime_errors_by_frama_c_eva() {
+fn c_is_free_of_runtime_errors_by_frama_c_eva(stem: &str) {
     let Some(frama) = tool("frama-c") else { return };
-    for stem in spec_stems() {
-        for (target, machdep) in [("host", "x86_64"), ("atmega328p", "x86_16")] {
-            let dir = scratch(&format!("c-eva-{target}-{stem}"));
-            // 0 alarms, every contract property valid, and every state's bounds a
-            // postcondition of step, proved by the analysis.
-            c_harness::eva(&plan_for(&stem, target), &frama, machdep, &dir);
-        }
+    for (target, machdep) in [("host", "x86_64"), ("atmega328p", "x86_16")] {
+        let dir = scratch(&format!("c-eva-{target}-{stem}"));
+        // 0 alarms, every contract property valid, and every state's bounds a
+        // postcondition of step, proved by the analysis.
+        c_harness::eva(&plan_for(stem, target), &frama, machdep, &dir);
     }
+}
+test_tools::spec_tests! {
+    c_is_free_of_runtime_errors_by_frama_c_eva in "verified/specs";
+    default: [grinding_pi, koren_masory_1981];
+    acceptance: [
+        acc_fixed_gain, gac_surface_finish, grinding_adaptive_pzc, koren_masory_safe,
+        koren_masory_tuned, milling_acc, milling_multimodel,
+    ];
 }

@@ -112,7 +112,7 @@ fn fixed_vars(x: i16, y: i32, s: i16, w: u16) -> Vec<i128> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(4000))]
+    #![proptest_config(ProptestConfig::with_cases(test_tools::cases(4000)))]
 
     #[test]
     fn generated_matches_interpreter(x in any::<i16>(), y in any::<i32>(), s in -8192i16..=8192, w in 0u16..=64880) {

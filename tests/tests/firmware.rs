@@ -59,7 +59,10 @@ fn avr_firmware_in_simavr_matches_the_host_build() {
     eprintln!("{}", pass.unwrap_or_default());
 }
 
+/// Three release builds of `qloop-verified` with LTO (host, thumbv6m, thumbv7em), every seed
+/// in each: the acceptance tier's.
 #[test]
+#[ignore = "acceptance tier (README, Tests)"]
 fn cortex_m_firmware_in_qemu_matches_the_host_run() {
     let have = tool("qemu-system-arm").is_some()
         && rust_target("thumbv6m-none-eabi")

@@ -10,7 +10,7 @@
 //!   missing, the test skips with a note unless `QLOOP_REQUIRE_TOOLS` is set.
 
 use qloop::emit::linuxcnc::{component_name, MARKERS};
-use qloop_tests::{plan_for, run, scratch, skip, spec_stems, tool};
+use qloop_tests::{plan_for, run, scratch, skip, tool};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -127,132 +127,142 @@ fn committed_example_is_the_emitters_output() {
     );
 }
 
-#[test]
-fn every_seed_spec_is_a_component_with_the_pins_run_sh_expects() {
-    for stem in spec_stems() {
-        let plan = plan_for(&stem, "host");
-        let text = comp(&stem);
-        let name = component_name(&plan);
-        assert!(text.starts_with(&format!("component {name} ")), "{stem}");
-        let n_in = plan.prog.ids_of(qloop::ir::SigKind::Input).count();
-        let in_pins: Vec<&str> = text
-            .lines()
-            .filter_map(|l| l.strip_prefix("pin in float "))
-            .map(|l| l.split(' ').next().unwrap())
-            .collect();
-        assert_eq!(in_pins.len(), n_in, "{stem}");
-        assert_eq!(in_pins[0], "spindle_load", "{stem}");
-        for p in &in_pins {
-            assert!(
-                text.contains(&format!("\npin out s32 {p}_raw ")),
-                "{stem}: {p}_raw"
-            );
-        }
-        for p in [
-            "pin out float adaptive_feed ",
-            "pin out u32 steps ",
-            "param r u32 period_us = ",
-            "\nfunction _ ",
-            "\nFUNCTION(_)\n",
-            "\nEXTRA_SETUP()\n",
-        ] {
-            assert!(text.contains(p), "{stem}: no `{p}`");
-        }
-        // halcompile makes a macro of the bare name of every pin, param and variable, and of
-        // `data`: each of those, read from the declarations themselves (not from the list
-        // the emitter pushes), must be pushed away before the controller and popped after it.
-        let pushes: Vec<&str> = text
-            .lines()
-            .filter_map(|l| l.strip_prefix("#pragma push_macro(\""))
-            .filter_map(|l| l.strip_suffix("\")"))
-            .collect();
-        let pops: Vec<&str> = text
-            .lines()
-            .filter_map(|l| l.strip_prefix("#pragma pop_macro(\""))
-            .filter_map(|l| l.strip_suffix("\")"))
-            .collect();
-        let declared: Vec<&str> = text
-            .lines()
-            .filter_map(|l| {
-                let w: Vec<&str> = l.split_whitespace().collect();
-                match w.first().copied() {
-                    Some("pin") | Some("param") => w.get(3).copied(),
-                    Some("variable") => w.get(2).copied(),
-                    _ => None,
-                }
-            })
-            .map(|n| n.trim_end_matches(';'))
-            .chain(["data"])
-            .collect();
-        for name in &declared {
-            assert!(pushes.contains(name), "{stem}: `{name}` is not pushed away");
-            assert!(pops.contains(name), "{stem}: `{name}` is not popped back");
-        }
-        // The controller's own identifiers from the spec, too.
-        for sig in &plan.prog.signals {
-            let id = qloop::emit::c::ident(&sig.name);
-            assert!(
-                pushes.contains(&id.as_str()),
-                "{stem}: spec name `{id}` not pushed"
-            );
-        }
-        assert_eq!(pushes, pops, "{stem}: pops differ from pushes");
-        let mut at = 0;
-        for m in MARKERS {
-            at += text[at..]
-                .find(m)
-                .unwrap_or_else(|| panic!("{stem}: marker {m} missing or out of order"));
-        }
+fn every_seed_spec_is_a_component_with_the_pins_run_sh_expects(stem: &str) {
+    let plan = plan_for(stem, "host");
+    let text = comp(stem);
+    let name = component_name(&plan);
+    assert!(text.starts_with(&format!("component {name} ")), "{stem}");
+    let n_in = plan.prog.ids_of(qloop::ir::SigKind::Input).count();
+    let in_pins: Vec<&str> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("pin in float "))
+        .map(|l| l.split(' ').next().unwrap())
+        .collect();
+    assert_eq!(in_pins.len(), n_in, "{stem}");
+    assert_eq!(in_pins[0], "spindle_load", "{stem}");
+    for p in &in_pins {
+        assert!(
+            text.contains(&format!("\npin out s32 {p}_raw ")),
+            "{stem}: {p}_raw"
+        );
+    }
+    for p in [
+        "pin out float adaptive_feed ",
+        "pin out u32 steps ",
+        "param r u32 period_us = ",
+        "\nfunction _ ",
+        "\nFUNCTION(_)\n",
+        "\nEXTRA_SETUP()\n",
+    ] {
+        assert!(text.contains(p), "{stem}: no `{p}`");
+    }
+    // halcompile makes a macro of the bare name of every pin, param and variable, and of
+    // `data`: each of those, read from the declarations themselves (not from the list
+    // the emitter pushes), must be pushed away before the controller and popped after it.
+    let pushes: Vec<&str> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("#pragma push_macro(\""))
+        .filter_map(|l| l.strip_suffix("\")"))
+        .collect();
+    let pops: Vec<&str> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("#pragma pop_macro(\""))
+        .filter_map(|l| l.strip_suffix("\")"))
+        .collect();
+    let declared: Vec<&str> = text
+        .lines()
+        .filter_map(|l| {
+            let w: Vec<&str> = l.split_whitespace().collect();
+            match w.first().copied() {
+                Some("pin") | Some("param") => w.get(3).copied(),
+                Some("variable") => w.get(2).copied(),
+                _ => None,
+            }
+        })
+        .map(|n| n.trim_end_matches(';'))
+        .chain(["data"])
+        .collect();
+    for name in &declared {
+        assert!(pushes.contains(name), "{stem}: `{name}` is not pushed away");
+        assert!(pops.contains(name), "{stem}: `{name}` is not popped back");
+    }
+    // The controller's own identifiers from the spec, too.
+    for sig in &plan.prog.signals {
+        let id = qloop::emit::c::ident(&sig.name);
+        assert!(
+            pushes.contains(&id.as_str()),
+            "{stem}: spec name `{id}` not pushed"
+        );
+    }
+    assert_eq!(pushes, pops, "{stem}: pops differ from pushes");
+    let mut at = 0;
+    for m in MARKERS {
+        at += text[at..]
+            .find(m)
+            .unwrap_or_else(|| panic!("{stem}: marker {m} missing or out of order"));
     }
 }
+test_tools::spec_tests! {
+    every_seed_spec_is_a_component_with_the_pins_run_sh_expects in "verified/specs";
+    default: [
+        acc_fixed_gain, gac_surface_finish, grinding_adaptive_pzc, grinding_pi, koren_masory_1981,
+        koren_masory_safe, koren_masory_tuned, milling_acc,
+    ];
+    acceptance: [milling_multimodel];
+}
 
-#[test]
-fn controller_has_no_division_or_float_and_the_component_no_division() {
-    for stem in spec_stems() {
-        let text = comp(&stem);
-        let controller = strip_comments(between(&text, MARKERS[0], MARKERS[1]));
-        assert!(controller.contains(&format!("{stem}_step(")), "{stem}");
-        let params: Vec<&str> = controller
-            .lines()
-            .filter_map(|l| l.strip_prefix("#define "))
-            .map(|l| l.split(' ').next().unwrap())
-            .filter(|m| m.contains("_PARAM_"))
-            .collect();
-        for line in controller.lines() {
-            assert!(
-                !arithmetic(line).contains('/') && !line.contains('%'),
-                "{stem}: division or modulo in the controller: {line}"
-            );
-            let toks = tokens(line);
-            assert!(
-                !toks.iter().any(|t| *t == "float" || *t == "double"),
-                "{stem}: floating-point type in the controller: {line}"
-            );
-            // The compiled-in params are documented as macros; nothing may use them.
-            if params
-                .iter()
-                .any(|m| line.starts_with(&format!("#define {m} ")))
-            {
-                continue;
-            }
-            assert!(
-                !toks.iter().any(|t| is_float_literal(t)),
-                "{stem}: floating constant in the controller: {line}"
-            );
-            assert!(
-                !toks.iter().any(|t| params.contains(t)),
-                "{stem}: a param macro is used: {line}"
-            );
+fn controller_has_no_division_or_float_and_the_component_no_division(stem: &str) {
+    let text = comp(stem);
+    let controller = strip_comments(between(&text, MARKERS[0], MARKERS[1]));
+    assert!(controller.contains(&format!("{stem}_step(")), "{stem}");
+    let params: Vec<&str> = controller
+        .lines()
+        .filter_map(|l| l.strip_prefix("#define "))
+        .map(|l| l.split(' ').next().unwrap())
+        .filter(|m| m.contains("_PARAM_"))
+        .collect();
+    for line in controller.lines() {
+        assert!(
+            !arithmetic(line).contains('/') && !line.contains('%'),
+            "{stem}: division or modulo in the controller: {line}"
+        );
+        let toks = tokens(line);
+        assert!(
+            !toks.iter().any(|t| *t == "float" || *t == "double"),
+            "{stem}: floating-point type in the controller: {line}"
+        );
+        // The compiled-in params are documented as macros; nothing may use them.
+        if params
+            .iter()
+            .any(|m| line.starts_with(&format!("#define {m} ")))
+        {
+            continue;
         }
-        // The glue and the HAL function convert floats by multiplications only.
-        let c = strip_comments(text.split_once("\n;;\n").expect("C section").1);
-        for line in c.lines() {
-            assert!(
-                !arithmetic(line).contains('/') && !line.contains('%'),
-                "{stem}: division or modulo in the component's C: {line}"
-            );
-        }
+        assert!(
+            !toks.iter().any(|t| is_float_literal(t)),
+            "{stem}: floating constant in the controller: {line}"
+        );
+        assert!(
+            !toks.iter().any(|t| params.contains(t)),
+            "{stem}: a param macro is used: {line}"
+        );
     }
+    // The glue and the HAL function convert floats by multiplications only.
+    let c = strip_comments(text.split_once("\n;;\n").expect("C section").1);
+    for line in c.lines() {
+        assert!(
+            !arithmetic(line).contains('/') && !line.contains('%'),
+            "{stem}: division or modulo in the component's C: {line}"
+        );
+    }
+}
+test_tools::spec_tests! {
+    controller_has_no_division_or_float_and_the_component_no_division in "verified/specs";
+    default: [
+        acc_fixed_gain, gac_surface_finish, grinding_adaptive_pzc, grinding_pi, koren_masory_1981,
+        koren_masory_safe, koren_masory_tuned, milling_acc,
+    ];
+    acceptance: [milling_multimodel];
 }
 
 /// The entries of a glue array `static const T NAME[..] = { a, b }; /* .. */`.
@@ -276,50 +286,55 @@ fn value_after<'a>(text: &'a str, prefix: &str, end: char) -> &'a str {
 
 /// The constants run.sh's checker takes from the glue (conversion scales, raw bounds, the
 /// override multiplier, rounding, period) and the params' values, recomputed from the plan.
-#[test]
-fn glue_constants_and_params_are_the_plans() {
+fn glue_constants_and_params_are_the_plans(stem: &str) {
     use qloop::ir::SigKind;
-    for stem in spec_stems() {
-        let plan = plan_for(&stem, "host");
-        let text = comp(&stem);
-        let glue = between(&text, MARKERS[2], MARKERS[3]);
-        let ins: Vec<_> = plan.prog.ids_of(SigKind::Input).collect();
-        let outs: Vec<_> = plan.prog.ids_of(SigKind::Output).collect();
-        let scale = |e: i32| format!("0x1p{e}");
-        let want: Vec<String> = ins.iter().map(|i| scale(plan.format(*i).frac)).collect();
-        assert_eq!(glue_array(glue, "qloop_in_scale"), want, "{stem}");
-        let bounds: Vec<(i128, i128)> = ins.iter().map(|i| plan.raw_bounds(*i).unwrap()).collect();
-        let lo: Vec<String> = bounds.iter().map(|b| b.0.to_string()).collect();
-        let hi: Vec<String> = bounds.iter().map(|b| b.1.to_string()).collect();
-        assert_eq!(glue_array(glue, "qloop_in_min"), lo, "{stem}");
-        assert_eq!(glue_array(glue, "qloop_in_max"), hi, "{stem}");
-        let want: Vec<String> = outs.iter().map(|o| scale(-plan.format(*o).frac)).collect();
-        assert_eq!(glue_array(glue, "qloop_out_scale"), want, "{stem}");
-        let ovr: f64 = value_after(glue, "static const double qloop_override_scale = ", ';')
-            .parse()
-            .unwrap();
-        assert_eq!(ovr, 1.0 / plan.summary[outs[0].0].range.1, "{stem}");
-        let nearest = plan.prog.rounding == qloop::qformat::Rounding::Nearest;
-        assert_eq!(
-            value_after(glue, "#define QLOOP_ROUND_NEAREST ", ' '),
-            if nearest { "1" } else { "0" },
-            "{stem}"
-        );
-        let period_us = (plan.prog.period * 1e6).round() as u64;
-        assert_eq!(
-            value_after(glue, "#define QLOOP_PERIOD_US ", 'U'),
-            period_us.to_string()
-        );
-        assert_eq!(
-            value_after(&text, "param r u32 period_us = ", ' '),
-            period_us.to_string()
-        );
-        for c in plan.prog.constants.iter().filter(|c| c.is_param) {
-            let prefix = format!("param r float {} = ", c.name.to_lowercase());
-            let v: f64 = value_after(&text, &prefix, ' ').parse().unwrap();
-            assert_eq!(v, c.value, "{stem}: {}", c.name);
-        }
+    let plan = plan_for(stem, "host");
+    let text = comp(stem);
+    let glue = between(&text, MARKERS[2], MARKERS[3]);
+    let ins: Vec<_> = plan.prog.ids_of(SigKind::Input).collect();
+    let outs: Vec<_> = plan.prog.ids_of(SigKind::Output).collect();
+    let scale = |e: i32| format!("0x1p{e}");
+    let want: Vec<String> = ins.iter().map(|i| scale(plan.format(*i).frac)).collect();
+    assert_eq!(glue_array(glue, "qloop_in_scale"), want, "{stem}");
+    let bounds: Vec<(i128, i128)> = ins.iter().map(|i| plan.raw_bounds(*i).unwrap()).collect();
+    let lo: Vec<String> = bounds.iter().map(|b| b.0.to_string()).collect();
+    let hi: Vec<String> = bounds.iter().map(|b| b.1.to_string()).collect();
+    assert_eq!(glue_array(glue, "qloop_in_min"), lo, "{stem}");
+    assert_eq!(glue_array(glue, "qloop_in_max"), hi, "{stem}");
+    let want: Vec<String> = outs.iter().map(|o| scale(-plan.format(*o).frac)).collect();
+    assert_eq!(glue_array(glue, "qloop_out_scale"), want, "{stem}");
+    let ovr: f64 = value_after(glue, "static const double qloop_override_scale = ", ';')
+        .parse()
+        .unwrap();
+    assert_eq!(ovr, 1.0 / plan.summary[outs[0].0].range.1, "{stem}");
+    let nearest = plan.prog.rounding == qloop::qformat::Rounding::Nearest;
+    assert_eq!(
+        value_after(glue, "#define QLOOP_ROUND_NEAREST ", ' '),
+        if nearest { "1" } else { "0" },
+        "{stem}"
+    );
+    let period_us = (plan.prog.period * 1e6).round() as u64;
+    assert_eq!(
+        value_after(glue, "#define QLOOP_PERIOD_US ", 'U'),
+        period_us.to_string()
+    );
+    assert_eq!(
+        value_after(&text, "param r u32 period_us = ", ' '),
+        period_us.to_string()
+    );
+    for c in plan.prog.constants.iter().filter(|c| c.is_param) {
+        let prefix = format!("param r float {} = ", c.name.to_lowercase());
+        let v: f64 = value_after(&text, &prefix, ' ').parse().unwrap();
+        assert_eq!(v, c.value, "{stem}: {}", c.name);
     }
+}
+test_tools::spec_tests! {
+    glue_constants_and_params_are_the_plans in "verified/specs";
+    default: [
+        acc_fixed_gain, gac_surface_finish, grinding_adaptive_pzc, grinding_pi, koren_masory_1981,
+        koren_masory_safe, koren_masory_tuned, milling_acc,
+    ];
+    acceptance: [milling_multimodel];
 }
 
 #[test]
@@ -452,37 +467,45 @@ fn can_install() -> bool {
 /// The machine-wide HAL session: one halrun test at a time.
 static HAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
-/// One test for every spec, in sequence: `run.sh` holds the machine-wide HAL session.
-#[test]
-fn halrun_matches_the_rust_controller_for_every_seed_spec() {
+/// The seed spec's component in a halrun servo thread matches the Rust controller. One halrun
+/// at a time (`run.sh` holds the machine-wide HAL session): under `cargo test` the [`HAL`]
+/// lock, under nextest the `halrun` test group (`.config/nextest.toml`).
+fn halrun_matches_the_rust_controller(stem: &str) {
     if tool("halcompile").is_none() || tool("halrun").is_none() || !can_install() {
         return;
     }
     let _hal = HAL.lock().unwrap_or_else(|e| e.into_inner());
-    let dir = scratch("linuxcnc");
-    for stem in spec_stems() {
-        let plan = plan_for(&stem, "host");
-        let comp_file = dir.join(format!("{}.comp", component_name(&plan)));
-        std::fs::write(&comp_file, comp(&stem)).unwrap();
-        // The 1981 controller gets the full 20,000 periods, the others a shorter run, but at
-        // least 25 controller steps at run.sh's 1 ms thread (`gac_surface_finish`, one step a
-        // second, runs 25 s).
-        let steps_25 = (25.0 * plan.prog.period * 1e3).ceil() as usize;
-        let rows = if stem == "koren_masory_1981" {
-            20_000
-        } else {
-            steps_25.max(6000)
-        };
-        let out = run(Command::new("bash")
-            .arg(root().join("targets/linuxcnc/run.sh"))
-            .arg(&comp_file)
-            .arg("rust")
-            .env("QLOOP_TEST_ROWS", rows.to_string())
-            .env("CARGO_TARGET_DIR", root().join("target/linuxcnc-ref")));
-        let pass = out.lines().find(|l| l.starts_with("PASS: "));
-        assert!(pass.is_some(), "{stem}: no PASS line:\n{out}");
-        eprintln!("{stem}: {}", pass.unwrap_or_default());
-    }
+    let dir = scratch(&format!("linuxcnc-{stem}"));
+    let plan = plan_for(stem, "host");
+    let comp_file = dir.join(format!("{}.comp", component_name(&plan)));
+    std::fs::write(&comp_file, comp(stem)).unwrap();
+    // The 1981 controller gets the full 20,000 periods, the others a shorter run, but at
+    // least 25 controller steps at run.sh's 1 ms thread (`gac_surface_finish`, one step a
+    // second, runs 25 s).
+    let steps_25 = (25.0 * plan.prog.period * 1e3).ceil() as usize;
+    let rows = if stem == "koren_masory_1981" {
+        20_000
+    } else {
+        steps_25.max(6000)
+    };
+    let out = run(Command::new("bash")
+        .arg(root().join("targets/linuxcnc/run.sh"))
+        .arg(&comp_file)
+        .arg("rust")
+        .env("QLOOP_TEST_ROWS", rows.to_string())
+        .env("CARGO_TARGET_DIR", root().join("target/linuxcnc-ref")));
+    let pass = out.lines().find(|l| l.starts_with("PASS: "));
+    assert!(pass.is_some(), "{stem}: no PASS line:\n{out}");
+    eprintln!("{stem}: {}", pass.unwrap_or_default());
+}
+// Each replays seconds of real time in a 1 ms thread, one at a time: the acceptance tier's.
+test_tools::spec_tests! {
+    halrun_matches_the_rust_controller in "verified/specs";
+    default: [];
+    acceptance: [
+        acc_fixed_gain, gac_surface_finish, grinding_adaptive_pzc, grinding_pi, koren_masory_1981,
+        koren_masory_safe, koren_masory_tuned, milling_acc, milling_multimodel,
+    ];
 }
 
 /// Issue 18, item 4: the safe spec's component has the bit pin `feed-hold` (its `#[flag]`
@@ -490,13 +513,20 @@ fn halrun_matches_the_rust_controller_for_every_seed_spec() {
 /// sets the hold on the 10th unchanged reading: FALSE at 0.5 s, TRUE at 1.8 s with fault 3 and
 /// the feed 0 (`targets/linuxcnc/hold.sh`).
 #[test]
-fn halrun_sets_feed_hold_and_fault_on_the_safe_component() {
+fn the_safe_component_has_the_feed_hold_and_fault_pins() {
     let c = comp("koren_masory_safe");
     assert!(
         c.contains("\npin out bit feed_hold "),
         "no bit pin feed_hold"
     );
     assert!(c.contains("\npin out float fault "), "no pin fault");
+}
+
+/// The halrun half of the test above, with real time: the acceptance tier's.
+#[test]
+#[ignore = "acceptance tier (README, Tests)"]
+fn halrun_sets_feed_hold_and_fault_on_the_safe_component() {
+    let c = comp("koren_masory_safe");
     if tool("halcompile").is_none() || tool("halrun").is_none() || !can_install() {
         return;
     }

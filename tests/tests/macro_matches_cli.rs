@@ -3,7 +3,7 @@
 //! compares the text.
 
 use proc_macro2::TokenStream;
-use qloop_tests::{all_specs, specs_dir};
+use qloop_tests::specs_dir;
 use quote::quote;
 
 fn pretty(ts: TokenStream) -> String {
@@ -21,48 +21,54 @@ fn without_rebuild_hook(ts: TokenStream) -> TokenStream {
     quote!(#f)
 }
 
-#[test]
-fn macro_expansion_equals_cli_output() {
+fn macro_expansion_equals_cli_output(stem: &str) {
     let dir = specs_dir();
     let dir = dir.parent().unwrap().to_str().unwrap();
-    for (stem, src) in all_specs() {
-        let plan = qloop::compile_str(&src, &qloop::Target::default()).unwrap();
-        let cli = qloop::gen_rust(&plan);
-        let cli = cli.strip_prefix(qloop::GEN_HEADER).unwrap();
-        let cli_ref = qloop::gen_reference(&plan);
-        let cli_ref = cli_ref.strip_prefix(qloop::GEN_HEADER).unwrap();
-        let cli_kani = qloop::gen_kani(&plan);
-        let cli_kani = cli_kani.strip_prefix(qloop::GEN_HEADER).unwrap();
+    let src = qloop_tests::spec_source(stem);
+    let plan = qloop_tests::plan(stem);
+    let cli = qloop::gen_rust(&plan);
+    let cli = cli.strip_prefix(qloop::GEN_HEADER).unwrap();
+    let cli_ref = qloop::gen_reference(&plan);
+    let cli_ref = cli_ref.strip_prefix(qloop::GEN_HEADER).unwrap();
+    let cli_kani = qloop_tests::kani_text(stem);
+    let cli_kani = cli_kani.strip_prefix(qloop::GEN_HEADER).unwrap();
 
-        // File mode, as qloop-verified uses it.
-        let path = format!("specs/{stem}.qloop");
-        let file_mode = qloop::expand_macro(quote!(#path), Some(dir));
-        assert_eq!(
-            pretty(without_rebuild_hook(file_mode)),
-            cli,
-            "{stem}: file mode"
-        );
-        let ref_mode = qloop::expand_macro(quote!(#path, reference), Some(dir));
-        assert_eq!(
-            pretty(without_rebuild_hook(ref_mode)),
-            cli_ref,
-            "{stem}: reference"
-        );
-        let kani_mode = qloop::expand_macro(quote!(#path, kani), Some(dir));
-        assert_eq!(
-            pretty(without_rebuild_hook(kani_mode)),
-            cli_kani,
-            "{stem}: kani"
-        );
+    // File mode, as qloop-verified uses it.
+    let path = format!("specs/{stem}.qloop");
+    let file_mode = qloop::expand_macro(quote!(#path), Some(dir));
+    assert_eq!(
+        pretty(without_rebuild_hook(file_mode)),
+        cli,
+        "{stem}: file mode"
+    );
+    let ref_mode = qloop::expand_macro(quote!(#path, reference), Some(dir));
+    assert_eq!(
+        pretty(without_rebuild_hook(ref_mode)),
+        cli_ref,
+        "{stem}: reference"
+    );
+    let kani_mode = qloop::expand_macro(quote!(#path, kani), Some(dir));
+    assert_eq!(
+        pretty(without_rebuild_hook(kani_mode)),
+        cli_kani,
+        "{stem}: kani"
+    );
 
-        // Inline mode: the spec's tokens written inside `controller! { .. }`.
-        let tokens: TokenStream = src.parse().unwrap();
-        assert_eq!(
-            pretty(qloop::expand_macro(tokens, None)),
-            cli,
-            "{stem}: inline"
-        );
-    }
+    // Inline mode: the spec's tokens written inside `controller! { .. }`.
+    let tokens: TokenStream = src.parse().unwrap();
+    assert_eq!(
+        pretty(qloop::expand_macro(tokens, None)),
+        cli,
+        "{stem}: inline"
+    );
+}
+test_tools::spec_tests! {
+    macro_expansion_equals_cli_output in "verified/specs";
+    default: [
+        acc_fixed_gain, gac_surface_finish, grinding_adaptive_pzc, grinding_pi, koren_masory_1981,
+        koren_masory_safe, koren_masory_tuned, milling_acc,
+    ];
+    acceptance: [milling_multimodel];
 }
 
 #[test]

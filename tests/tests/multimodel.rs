@@ -11,7 +11,9 @@ fn plan() -> qloop::Plan {
     .expect("milling_multimodel.qloop compiles")
 }
 
+// Compiles the multi-model controller (14,000 values): the acceptance tier's, with its other checks.
 #[test]
+#[ignore = "acceptance tier (README, Tests)"]
 fn the_assembled_controller_compiles_with_every_invariant_unrolled() {
     let plan = plan();
     let prog = &plan.prog;

@@ -198,7 +198,19 @@ fn compile_c(cc: &Path, flags: &[String], c: &Path, o: &Path) {
         .arg(o));
 }
 
-fn check_c(target: &str) {
+/// The C targets whose compiler and objdump are checked, each by its `targets/*.toml`.
+const C_TARGETS: [&str; 6] = [
+    "atmega328p",
+    "cortex-m0",
+    "cortex-m0-slowmul",
+    "cortex-m4",
+    "rv32i",
+    "rv32imc",
+];
+
+/// The seed spec's C, compiled for `target` by its real compiler and disassembled: no
+/// division in `step`, and with the planned multiplies made opaque, no multiply left.
+fn check_c(stem: &str, target: &str) {
     let t = qloop::targets::by_name(target).unwrap();
     let (Some(cc), Some(od)) = (
         t.toolchain.cc.as_deref().and_then(tool),
@@ -206,83 +218,74 @@ fn check_c(target: &str) {
     ) else {
         return;
     };
-    for stem in spec_stems() {
-        let plan: Plan = plan_for(&stem, target);
-        let dir = scratch(&format!("obj-c-{target}-{stem}"));
-        let (h, c) = qloop::gen_c(&plan);
-        std::fs::write(dir.join(format!("{stem}.h")), &h).unwrap();
-        let step = format!("{stem}_step");
+    let plan: Plan = plan_for(stem, target);
+    let dir = scratch(&format!("obj-c-{target}-{stem}"));
+    let (h, c) = qloop::gen_c(&plan);
+    std::fs::write(dir.join(format!("{stem}.h")), &h).unwrap();
+    let step = format!("{stem}_step");
 
-        // As emitted: no division anywhere in step.
-        let src = dir.join(format!("{stem}.c"));
-        std::fs::write(&src, &c).unwrap();
-        let obj = dir.join("step.o");
-        compile_c(&cc, &t.toolchain.cflags, &src, &obj);
-        let asm = functions(&od, &obj, &step);
-        assert!(!asm.is_empty(), "{stem}/{target}: no {step} in the object");
-        let divs: Vec<&String> = asm.iter().filter(|l| is_div(l)).collect();
-        assert!(
-            divs.is_empty(),
-            "{stem}/{target}: division in step: {divs:?}"
-        );
+    // As emitted: no division anywhere in step.
+    let src = dir.join(format!("{stem}.c"));
+    std::fs::write(&src, &c).unwrap();
+    let obj = dir.join("step.o");
+    compile_c(&cc, &t.toolchain.cflags, &src, &obj);
+    let asm = functions(&od, &obj, &step);
+    assert!(!asm.is_empty(), "{stem}/{target}: no {step} in the object");
+    let divs: Vec<&String> = asm.iter().filter(|l| is_div(l)).collect();
+    assert!(
+        divs.is_empty(),
+        "{stem}/{target}: division in step: {divs:?}"
+    );
 
-        // Planned multiplies made opaque: nothing may multiply.
-        let (opaque, n) = opaque_multiplies(&c);
-        assert_eq!(
-            n,
-            op_counts(&plan).mul,
-            "{stem}/{target}: replaced multiplies vs the plan's count"
-        );
-        let src2 = dir.join(format!("{stem}_opaque.c"));
-        std::fs::write(&src2, opaque).unwrap();
-        let obj2 = dir.join("step_opaque.o");
-        compile_c(&cc, &t.toolchain.cflags, &src2, &obj2);
-        let asm2 = functions(&od, &obj2, &step);
-        let muls: Vec<&String> = asm2
-            .iter()
-            .enumerate()
-            .filter(|(i, l)| is_mul(l) && !by_power_of_two(&asm2, *i))
-            .map(|(_, l)| l)
-            .collect();
-        assert!(
-            muls.is_empty(),
-            "{stem}/{target}: the compiler turned a shift-add network into a multiply: {muls:?}"
-        );
-        // One relocation per call (the call instruction itself names the target on some
-        // architectures and not on others).
-        let calls = asm2
-            .iter()
-            .filter(|l| l.contains("qloop_opaque_mul") && l.contains("R_"))
-            .count();
-        assert_eq!(
-            calls, n,
-            "{stem}/{target}: calls to the opaque multiply vs the plan's multiplies"
-        );
+    // Planned multiplies made opaque: nothing may multiply.
+    let (opaque, n) = opaque_multiplies(&c);
+    assert_eq!(
+        n,
+        op_counts(&plan).mul,
+        "{stem}/{target}: replaced multiplies vs the plan's count"
+    );
+    let src2 = dir.join(format!("{stem}_opaque.c"));
+    std::fs::write(&src2, opaque).unwrap();
+    let obj2 = dir.join("step_opaque.o");
+    compile_c(&cc, &t.toolchain.cflags, &src2, &obj2);
+    let asm2 = functions(&od, &obj2, &step);
+    let muls: Vec<&String> = asm2
+        .iter()
+        .enumerate()
+        .filter(|(i, l)| is_mul(l) && !by_power_of_two(&asm2, *i))
+        .map(|(_, l)| l)
+        .collect();
+    assert!(
+        muls.is_empty(),
+        "{stem}/{target}: the compiler turned a shift-add network into a multiply: {muls:?}"
+    );
+    // One relocation per call (the call instruction itself names the target on some
+    // architectures and not on others).
+    let calls = asm2
+        .iter()
+        .filter(|l| l.contains("qloop_opaque_mul") && l.contains("R_"))
+        .count();
+    assert_eq!(
+        calls, n,
+        "{stem}/{target}: calls to the opaque multiply vs the plan's multiplies"
+    );
+}
+
+/// The seed spec's C has no division and no unplanned multiply on any target whose tools are
+/// installed (riscv64-unknown-elf-gcc for RV32I, where multiplies are `__mulsi3`/`__muldi3`
+/// calls, and RV32IMC, with `mul`/`mulh*`, where `div`/`rem` exist and must not appear).
+fn c_has_no_division_and_no_unplanned_multiply(stem: &str) {
+    for target in C_TARGETS {
+        check_c(stem, target);
     }
 }
-
-#[test]
-fn c_for_atmega328p_has_no_division_and_no_unplanned_multiply() {
-    check_c("atmega328p");
-}
-
-#[test]
-fn c_for_cortex_m0_has_no_division_and_no_unplanned_multiply() {
-    check_c("cortex-m0");
-    check_c("cortex-m0-slowmul");
-}
-
-#[test]
-fn c_for_cortex_m4_has_no_division_and_no_unplanned_multiply() {
-    check_c("cortex-m4");
-}
-
-/// riscv64-unknown-elf-gcc for RV32I (multiplies are `__mulsi3`/`__muldi3` calls) and RV32IMC
-/// (`mul`/`mulh*`; `div`/`rem` exist and must not appear).
-#[test]
-fn c_for_rv32_has_no_division_and_no_unplanned_multiply() {
-    check_c("rv32i");
-    check_c("rv32imc");
+test_tools::spec_tests! {
+    c_has_no_division_and_no_unplanned_multiply in "verified/specs";
+    default: [acc_fixed_gain, grinding_pi, koren_masory_1981];
+    acceptance: [
+        gac_surface_finish, grinding_adaptive_pzc, koren_masory_safe, koren_masory_tuned,
+        milling_acc, milling_multimodel,
+    ];
 }
 
 /// `llvm-objdump` of the rustup toolchain (component llvm-tools).
@@ -300,7 +303,29 @@ fn llvm_objdump() -> Option<PathBuf> {
     None
 }
 
+/// The default tier's guard of what the test below checks by building for bare metal: the
+/// crate root declares `#![no_std]` unconditionally (not behind a `cfg_attr`), so a host
+/// build that links `std` cannot hide a firmware build that would fail.
 #[test]
+fn qloop_verified_declares_no_std() {
+    let lib = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../verified/src/lib.rs");
+    let src = std::fs::read_to_string(&lib).unwrap_or_else(|e| panic!("{}: {e}", lib.display()));
+    let attrs: Vec<&str> = src
+        .lines()
+        .map(str::trim)
+        .filter(|l| l.starts_with("#!["))
+        .collect();
+    assert!(
+        attrs.contains(&"#![no_std]"),
+        "{}: the crate root must declare `#![no_std]` (its inner attributes: {attrs:?})",
+        lib.display()
+    );
+}
+
+/// Builds `qloop-verified` in release for four bare-metal targets (every seed in one crate, so
+/// one build per target): the acceptance tier's.
+#[test]
+#[ignore = "acceptance tier (README, Tests)"]
 fn rust_step_has_no_division_and_no_unplanned_library_multiply() {
     let Some(od) = llvm_objdump() else { return };
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");

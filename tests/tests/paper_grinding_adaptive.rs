@@ -23,7 +23,7 @@
 //!   exactly).
 //!
 //! Table 1 (the paper's 4.5 s records at 25 N, fixed gain vs adaptive on four steels) and
-//! qloop's (`cargo test -p qloop-tests --test paper_grinding_adaptive -- --nocapture` prints
+//! qloop's (`cargo test -p qloop-tests --test integration paper_grinding_adaptive:: -- --nocapture` prints
 //! the table, the measured force as Table 1 gives it and the true force): on `noise` (0.5 N
 //! sensor noise, η = 2 1/s) the adaptive loop has the smaller standard deviation and range of
 //! the force, **in absolute terms, as the paper finds**, because its lower loop gain at DC

@@ -46,7 +46,9 @@ fn the_placement_invariant_and_claim_are_proved() {
     );
 }
 
+// The ZOH placement is proved in the default run; its β-FROH twin in the acceptance tier.
 #[test]
+#[ignore = "acceptance tier (README, Tests)"]
 fn the_froh_placement_invariant_and_claim_are_proved() {
     qloop_tests::assert_proved(
         &froh_plan(),

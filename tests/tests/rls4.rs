@@ -30,7 +30,9 @@ const P0: f64 = 2.0;
 /// The parameters the data come from: 003's initial ZOH model (a1, a2, b1, b2), scaled.
 const THETA: [f64; 4] = [0.1793, 0.1867, 1.4644, 1.5161];
 
+// Proofs of a 4-parameter estimator (rls3.rs proves the 3-parameter one in the default run).
 #[test]
+#[ignore = "acceptance tier (README, Tests)"]
 fn every_obligation_and_the_positive_definiteness_are_proved_by_both_solvers() {
     let r = qloop_tests::assert_proved(&plan(), 60_000, &[]);
     for inv in [

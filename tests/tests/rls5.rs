@@ -92,7 +92,9 @@ fn det_expands_to_the_determinant() {
     }
 }
 
+// Proofs of a 5-parameter estimator (rls3.rs proves the 3-parameter one in the default run).
 #[test]
+#[ignore = "acceptance tier (README, Tests)"]
 fn every_obligation_and_the_positive_definiteness_are_proved_by_both_solvers() {
     let r = qloop_tests::assert_proved(&plan(), 60_000, &[]);
     for inv in [

@@ -91,7 +91,7 @@ fn error_bounds_are_not_vacuous() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(4000))]
+    #![proptest_config(ProptestConfig::with_cases(test_tools::cases(4000)))]
 
     #[test]
     fn km81_generated_matches_interpreter(fc in any::<i16>(), km in in_bounds(km81_plan(), "km"),

@@ -127,7 +127,7 @@ fn states_strategy() -> impl Strategy<Value = Vec<i32>> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(3000))]
+    #![proptest_config(ProptestConfig::with_cases(test_tools::cases(3000)))]
 
     #[test]
     fn reference_is_the_algorithm_written_with_loops(

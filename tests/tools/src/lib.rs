@@ -257,6 +257,122 @@ pub fn remove_stale_records(age: Duration) {
     }
 }
 
+/// Whether this is the acceptance tier's run: `QLOOP_ACCEPTANCE` is set, and not to `0`
+/// (`.ci/run` sets it for the acceptance tier; README, "Tests").
+pub fn acceptance() -> bool {
+    std::env::var_os("QLOOP_ACCEPTANCE").is_some_and(|v| !v.is_empty() && v != "0")
+}
+
+/// Random cases for a sampling test (proptest): `full` in the acceptance tier
+/// ([`acceptance`]), an eighth of it (at least 32) in the default run, which keeps every such
+/// test but spends seconds, not minutes, on it.
+pub fn cases(full: u32) -> u32 {
+    if acceptance() {
+        full
+    } else {
+        (full / 8).max(32)
+    }
+}
+
+/// The workspace root (this crate is `tests/tools/`).
+pub fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// The stems of the `*.qloop` files of `folder` (relative to the workspace root), sorted.
+pub fn spec_stems_in(folder: &str) -> Vec<String> {
+    let dir = workspace_root().join(folder);
+    let mut v: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "qloop"))
+        .filter_map(|p| p.file_stem().map(|s| s.to_string_lossy().into_owned()))
+        .collect();
+    v.sort();
+    v
+}
+
+/// Asserts that `listed` names every `*.qloop` file of `folder` (relative to the workspace
+/// root) exactly once, and nothing else: a spec added to the folder without a test, or a test
+/// left after its spec was removed, fails here by name. Used by [`spec_tests!`].
+pub fn assert_lists_folder(folder: &str, listed: &[&str]) {
+    let files = spec_stems_in(folder);
+    let mut names: Vec<&str> = listed.to_vec();
+    names.sort_unstable();
+    let twice: Vec<&&str> = names
+        .windows(2)
+        .filter(|w| w[0] == w[1])
+        .map(|w| &w[0])
+        .collect();
+    assert!(twice.is_empty(), "listed twice: {twice:?}");
+    let missing: Vec<&String> = files
+        .iter()
+        .filter(|f| !names.contains(&f.as_str()))
+        .collect();
+    let extra: Vec<&&str> = names
+        .iter()
+        .filter(|n| !files.iter().any(|f| f == *n))
+        .collect();
+    assert!(
+        missing.is_empty() && extra.is_empty(),
+        "the specs of {folder} and the tests listed for them differ: without a test {missing:?}, \
+         without a spec {extra:?}; list each spec under `default` or `acceptance`"
+    );
+}
+
+/// One `#[test]` per spec of a folder, so that a failure names its spec and the specs run in
+/// parallel. `spec_tests! { NAME in "FOLDER"; default: [..]; acceptance: [..]; }` next to a
+/// function `fn NAME(stem: &str)` declares a module `NAME` holding a test per listed stem,
+/// `NAME::<stem>`, which calls the function with it. The stems under `default` run in `cargo
+/// test`; those under `acceptance` are `#[ignore]`d, and the acceptance tier runs them (README,
+/// "Tests"). A last test, `NAME::every_spec_of_the_folder_has_a_test`, checks that the two lists
+/// together name every `*.qloop` file of `FOLDER` (relative to the workspace root), and only
+/// those.
+///
+/// ```ignore
+/// /// Every seed spec is proved from scratch.
+/// fn proved(stem: &str) {
+///     prove(&format!("verified/specs/{stem}.qloop"));
+/// }
+/// test_tools::spec_tests! {
+///     proved in "verified/specs";
+///     default: [koren_masory_1981, grinding_pi];
+///     acceptance: [milling_multimodel];
+/// }
+/// ```
+#[macro_export]
+macro_rules! spec_tests {
+    (
+        $name:ident in $folder:literal;
+        default: [$($d:ident),* $(,)?];
+        acceptance: [$($a:ident),* $(,)?] $(;)?
+    ) => {
+        /// One test per spec of the folder (`test_tools::spec_tests!`).
+        mod $name {
+            $(
+                #[test]
+                fn $d() {
+                    super::$name(stringify!($d))
+                }
+            )*
+            $(
+                #[test]
+                #[ignore = "acceptance tier (README, Tests)"]
+                fn $a() {
+                    super::$name(stringify!($a))
+                }
+            )*
+            #[test]
+            fn every_spec_of_the_folder_has_a_test() {
+                $crate::assert_lists_folder(
+                    $folder,
+                    &[$(stringify!($d),)* $(stringify!($a),)*],
+                );
+            }
+        }
+    };
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

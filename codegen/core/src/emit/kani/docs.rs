@@ -1,7 +1,7 @@
 //! The harness module's doc comment and each property harness's doc.
 
 use super::show::{list, show_cond};
-use super::CASES;
+use super::{ACCEPTANCE_CASES, CASES};
 use crate::ir::{PCond, Property};
 use crate::lower::Plan;
 use crate::prop_eval::ParamGrid;
@@ -25,7 +25,8 @@ pub(super) fn module_doc(
          {intro}\n\n\
          Each harness is a Kani proof (`cargo kani --tests`: one symbolic case, \
          `kani::any()`) and, through bolero, a randomized property test under `cargo test` \
-         ({CASES} cases each). They drive the generated controller itself (`set_states`, \
+         ({CASES} cases each; `BOLERO_RANDOM_ITERATIONS` overrides it, and the acceptance \
+         tier runs {ACCEPTANCE_CASES}). They drive the generated controller itself (`set_states`, \
          `step`, `states`).\n\n\
          * `ranges_and_overflow`: no overflow, states stay inside their bounds.\n\
          * `initial`: the initial state is inside the bounds and the invariants.\n",

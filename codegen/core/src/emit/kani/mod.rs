@@ -58,9 +58,15 @@ use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
 
 /// Random cases each harness runs under `cargo test` (bolero's own default is "as many as fit
-/// in one second", which varies with the machine and the build). `BOLERO_RANDOM_ITERATIONS`
-/// overrides it; under Kani it is ignored.
-pub const CASES: usize = 100_000;
+/// in one second", which varies with the machine and the build): enough for the default test
+/// run to exercise every harness in a fraction of a second. `BOLERO_RANDOM_ITERATIONS`
+/// overrides it, and the acceptance tier sets it to [`ACCEPTANCE_CASES`]; under Kani it is
+/// ignored.
+pub const CASES: usize = 1_000;
+
+/// Random cases per harness in the acceptance tier (`.ci/run` sets `BOLERO_RANDOM_ITERATIONS`
+/// to this; README, "Tests").
+pub const ACCEPTANCE_CASES: usize = 100_000;
 
 /// Largest magnitude, as a power of two, an exactly evaluated intermediate may reach.
 pub const LIMIT_BITS: u32 = 126;
@@ -129,7 +135,8 @@ pub fn module(plan: &Plan) -> TokenStream {
             use super::#target::{Controller, Inputs, States};
 
             /// Random cases per harness under `cargo test` (`BOLERO_RANDOM_ITERATIONS`
-            /// overrides it); Kani ignores it and covers every value.
+            /// overrides it: the acceptance tier runs 100,000); Kani ignores it and covers
+            /// every value.
             const CASES: usize = #cases;
 
             #shared
