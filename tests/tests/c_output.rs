@@ -40,14 +40,6 @@ fn c_compiles_without_warnings_for_every_target(stem: &str) {
         c_harness::warning_free(&plan, &cc, &dir);
     }
 }
-test_tools::spec_tests! {
-    c_compiles_without_warnings_for_every_target in "verified/specs";
-    default: [grinding_pi, koren_masory_1981];
-    acceptance: [
-        acc_fixed_gain, gac_surface_finish, grinding_adaptive_pzc, koren_masory_safe,
-        koren_masory_tuned, milling_acc, milling_multimodel,
-    ];
-}
 
 /// The `qloop-verified` module of a seed spec, run from its initial state on raw inputs:
 /// every step's raw outputs, then raw states (a vector's elements row-major).
@@ -129,14 +121,6 @@ fn c_matches_the_rust_output_bit_for_bit(stem: &str) {
         }
     }
 }
-test_tools::spec_tests! {
-    c_matches_the_rust_output_bit_for_bit in "verified/specs";
-    default: [grinding_pi, koren_masory_1981];
-    acceptance: [
-        acc_fixed_gain, gac_surface_finish, grinding_adaptive_pzc, koren_masory_safe,
-        koren_masory_tuned, milling_acc, milling_multimodel,
-    ];
-}
 
 fn c_matches_the_interpreter_from_any_state(stem: &str) {
     let Some(gcc) = tool("gcc") else { return };
@@ -181,14 +165,6 @@ fn c_matches_the_interpreter_from_any_state(stem: &str) {
         assert_eq!(got, want, "{stem}/{target}");
     }
 }
-test_tools::spec_tests! {
-    c_matches_the_interpreter_from_any_state in "verified/specs";
-    default: [grinding_pi, koren_masory_1981];
-    acceptance: [
-        acc_fixed_gain, gac_surface_finish, grinding_adaptive_pzc, koren_masory_safe,
-        koren_masory_tuned, milling_acc, milling_multimodel,
-    ];
-}
 
 fn c_is_free_of_runtime_errors_by_frama_c_eva(stem: &str) {
     let Some(frama) = tool("frama-c") else { return };
@@ -200,6 +176,9 @@ fn c_is_free_of_runtime_errors_by_frama_c_eva(stem: &str) {
     }
 }
 test_tools::spec_tests! {
+    c_compiles_without_warnings_for_every_target,
+    c_matches_the_rust_output_bit_for_bit,
+    c_matches_the_interpreter_from_any_state,
     c_is_free_of_runtime_errors_by_frama_c_eva in "verified/specs";
     default: [grinding_pi, koren_masory_1981];
     acceptance: [

@@ -131,14 +131,6 @@ fn harness_snapshots(stem: &str) {
     );
     insta::assert_snapshot!(format!("{stem}_kani"), snapshot_text(text));
 }
-test_tools::spec_tests! {
-    harness_snapshots in "verified/specs";
-    default: [
-        acc_fixed_gain, gac_surface_finish, grinding_adaptive_pzc, grinding_pi, koren_masory_1981,
-        koren_masory_safe, koren_masory_tuned, milling_acc,
-    ];
-    acceptance: [milling_multimodel];
-}
 
 /// The chain of assumptions is closed: every function a harness stubs is replaced by an
 /// abstraction defined in the module, and every clause an abstraction assumes is the clause a
@@ -239,6 +231,7 @@ fn every_assumed_clause_is_a_lemma_over_the_asserted_box(stem: &str) {
     }
 }
 test_tools::spec_tests! {
+    harness_snapshots,
     every_assumed_clause_is_a_lemma_over_the_asserted_box in "verified/specs";
     default: [
         acc_fixed_gain, gac_surface_finish, grinding_adaptive_pzc, grinding_pi, koren_masory_1981,

@@ -202,14 +202,6 @@ fn every_seed_spec_is_a_component_with_the_pins_run_sh_expects(stem: &str) {
             .unwrap_or_else(|| panic!("{stem}: marker {m} missing or out of order"));
     }
 }
-test_tools::spec_tests! {
-    every_seed_spec_is_a_component_with_the_pins_run_sh_expects in "verified/specs";
-    default: [
-        acc_fixed_gain, gac_surface_finish, grinding_adaptive_pzc, grinding_pi, koren_masory_1981,
-        koren_masory_safe, koren_masory_tuned, milling_acc,
-    ];
-    acceptance: [milling_multimodel];
-}
 
 fn controller_has_no_division_or_float_and_the_component_no_division(stem: &str) {
     let text = comp(stem);
@@ -255,14 +247,6 @@ fn controller_has_no_division_or_float_and_the_component_no_division(stem: &str)
             "{stem}: division or modulo in the component's C: {line}"
         );
     }
-}
-test_tools::spec_tests! {
-    controller_has_no_division_or_float_and_the_component_no_division in "verified/specs";
-    default: [
-        acc_fixed_gain, gac_surface_finish, grinding_adaptive_pzc, grinding_pi, koren_masory_1981,
-        koren_masory_safe, koren_masory_tuned, milling_acc,
-    ];
-    acceptance: [milling_multimodel];
 }
 
 /// The entries of a glue array `static const T NAME[..] = { a, b }; /* .. */`.
@@ -329,6 +313,8 @@ fn glue_constants_and_params_are_the_plans(stem: &str) {
     }
 }
 test_tools::spec_tests! {
+    every_seed_spec_is_a_component_with_the_pins_run_sh_expects,
+    controller_has_no_division_or_float_and_the_component_no_division,
     glue_constants_and_params_are_the_plans in "verified/specs";
     default: [
         acc_fixed_gain, gac_surface_finish, grinding_adaptive_pzc, grinding_pi, koren_masory_1981,

@@ -327,7 +327,8 @@ pub fn assert_lists_folder(folder: &str, listed: &[&str]) {
 /// test`; those under `acceptance` are `#[ignore]`d, and the acceptance tier runs them (README,
 /// "Tests"). A last test, `NAME::every_spec_of_the_folder_has_a_test`, checks that the two lists
 /// together name every `*.qloop` file of `FOLDER` (relative to the workspace root), and only
-/// those.
+/// those. Several checks with the same tiers share one call: `spec_tests! { A, B in "FOLDER";
+/// .. }` declares modules `A` and `B`.
 ///
 /// ```ignore
 /// /// Every seed spec is proved from scratch.
@@ -343,9 +344,9 @@ pub fn assert_lists_folder(folder: &str, listed: &[&str]) {
 #[macro_export]
 macro_rules! spec_tests {
     (
-        $name:ident in $folder:literal;
+        @one $name:ident in $folder:literal;
         default: [$($d:ident),* $(,)?];
-        acceptance: [$($a:ident),* $(,)?] $(;)?
+        acceptance: [$($a:ident),* $(,)?]
     ) => {
         /// One test per spec of the folder (`test_tools::spec_tests!`).
         mod $name {
@@ -370,6 +371,14 @@ macro_rules! spec_tests {
                 );
             }
         }
+    };
+    // Several checks over the same folder with the same tiers: one module each.
+    (
+        $($name:ident),+ in $folder:literal;
+        default: $d:tt;
+        acceptance: $a:tt $(;)?
+    ) => {
+        $($crate::spec_tests!(@one $name in $folder; default: $d; acceptance: $a);)+
     };
 }
 
