@@ -57,7 +57,9 @@ struct Decimal {
 impl Decimal {
     /// Reads `[-+]int[.frac][e[-+]exp]`.
     fn parse(s: &str) -> Option<Decimal> {
-        let (mant, e) = match s.find(['e', 'E']) {
+        // A byte search: `find(['e', 'E'])` is a char-array searcher, several times slower
+        // in the test builds that compare millions of printed bounds.
+        let (mant, e) = match s.bytes().position(|b| b == b'e' || b == b'E') {
             Some(i) => (&s[..i], s[i + 1..].parse::<i64>().ok()?),
             None => (s, 0),
         };

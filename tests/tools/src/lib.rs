@@ -399,6 +399,66 @@ mod tests {
         assert_eq!(back.reason, "`avr-gcc` is not installed");
     }
 
+    /// `.ci/run`'s acceptance tier runs the default tier's sampling tests again at full scale
+    /// through a nextest filter (`scaled=`) and, apart from those, only the `#[ignore]`d
+    /// tests: a module that calls [`cases`] must be named there, or its full case count
+    /// would never run.
+    #[test]
+    fn every_module_that_scales_its_cases_is_in_the_acceptance_filter() {
+        let root = workspace_root();
+        let ci = std::fs::read_to_string(root.join(".ci/run")).unwrap();
+        let filter = ci
+            .split_once("scaled='")
+            .and_then(|(_, r)| r.split_once('\''))
+            .expect(".ci/run defines the filter `scaled='...'`")
+            .0;
+        assert!(filter.contains("package(qloop-verified)"), "{filter}");
+        // The module list of the clause that names `binary`, as `^(a|b|c)::`.
+        let modules = |binary: &str| -> Vec<String> {
+            let clause = filter
+                .split('|')
+                .map(str::trim)
+                .collect::<Vec<_>>()
+                .join("|");
+            let at = clause
+                .find(&format!("binary_id({binary})"))
+                .unwrap_or_else(|| panic!("no clause for {binary} in {filter}"));
+            let rest = &clause[at..];
+            let list = rest
+                .split_once("test(/^(")
+                .and_then(|(_, r)| r.split_once(")::/)"))
+                .unwrap_or_else(|| panic!("clause for {binary}: {rest}"))
+                .0;
+            list.split('|').map(str::to_string).collect()
+        };
+        let mut checked = 0;
+        for (dir, binary) in [
+            ("tests/tests", "qloop-tests::integration"),
+            ("codegen/tests", "qloop::integration"),
+        ] {
+            let listed = modules(binary);
+            for e in std::fs::read_dir(root.join(dir)).unwrap() {
+                let path = e.unwrap().path();
+                if path.extension().is_none_or(|x| x != "rs") {
+                    continue;
+                }
+                let text = std::fs::read_to_string(&path).unwrap();
+                if !text.contains("test_tools::cases(") {
+                    continue;
+                }
+                let stem = path.file_stem().unwrap().to_string_lossy().into_owned();
+                assert!(
+                    listed.contains(&stem),
+                    "{}: calls test_tools::cases but `{stem}` is not in .ci/run's `scaled` \
+                     filter for {binary}: add it there",
+                    path.display()
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked >= 5, "found only {checked} modules calling cases()");
+    }
+
     /// The summary runs last only while this package's name sorts after every other
     /// package of the workspace (cargo orders test binaries by package name).
     #[test]
