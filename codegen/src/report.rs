@@ -100,19 +100,19 @@ fn tables(plan: &Plan) -> String {
             None => String::new(),
             Some(qloop_core::ir::TableClaim::Proved) => format!("; claimed error {}: proved", g(t.claim.unwrap_or(0.0))),
             Some(qloop_core::ir::TableClaim::Refuted { x, err }) => format!(
-                "; claimed error {}: REFUTED at x = {} (|L(x) - f(x)| = {})",
+                "; claimed error {}: REFUTED at x = {} (|L(x) - f(x)| >= {}, exact)",
                 g(t.claim.unwrap_or(0.0)),
                 g(x),
-                bound(err)
+                qloop_core::text::bound_down(err)
             ),
             Some(qloop_core::ir::TableClaim::Unknown) => format!(
-                "; claimed error {}: UNKNOWN (the curvature bound is larger; no sampled point exceeds the claim)",
+                "; claimed error {}: UNKNOWN (the bound is larger; no sampled point exceeds the claim)",
                 g(t.claim.unwrap_or(0.0))
             ),
         };
         let _ = writeln!(
             o,
-            "  line {}: {} over [{}, {}], step {} ({} segments; arrays {}): |L(x) - f(x)| <= {} (curvature), at least {} (sampled){claim}",
+            "  line {}: {} over [{}, {}], step {} ({} segments; arrays {}): |L(x) - f(x)| <= {} (curvature and samples), at least {} (sampled, exact){claim}",
             t.span.start().line,
             t.name,
             g(t.lo),
@@ -121,7 +121,7 @@ fn tables(plan: &Plan) -> String {
             t.segments(),
             if arrays.is_empty() { "none: unused".to_string() } else { arrays.join(", ") },
             bound(t.interp_err),
-            bound(t.witness.1),
+            qloop_core::text::bound_down(t.witness.1),
         );
     }
     o

@@ -121,7 +121,8 @@ test_tools::spec_tests! {
     default: [
         backoff_factor_at_range_edge, claimed_range_too_narrow, csd_partial_sum,
         determinant_bound_too_high, law_check_looser_than_invariant, missing_saturation,
-        property_sign_error, rule_counter_off_by_one, table_claim_too_small,
+        property_sign_error, rule_counter_off_by_one, table_claim_cancellation,
+        table_claim_too_small,
     ];
     acceptance: [
         c2_too_large, pole_placement_sign_error, recip_tracker_gain_too_large,

@@ -1158,3 +1158,30 @@ fn float_step_of_every_construct_matches_the_real_interpreter() {
         paths.len()
     );
 }
+
+/// The float C of every spec of the claim corpus that compiles (on-grid and dead tables,
+/// vectors of 33 and 256 elements among them, issue 35) compiles with the strict flags and
+/// calls nothing external.
+#[test]
+fn float_c_of_every_compiling_corpus_spec_compiles_with_the_strict_flags() {
+    if !have_gcc() {
+        return;
+    }
+    let mut n = 0;
+    for (stem, src) in qloop_tests::claim_corpus() {
+        if qloop_tests::corpus_expectation(&src).is_some() {
+            continue;
+        }
+        let prog = qloop::compile_str(&src, &Target::default())
+            .unwrap_or_else(|e| panic!("{stem}: {}", e.message))
+            .prog;
+        let dir = scratch(&format!("corpus-{stem}"));
+        let (h, c) = c_float::source(&prog);
+        std::fs::write(dir.join(format!("{}_f.h", prog.name)), h).expect("write header");
+        let path = dir.join(format!("{}_f.c", prog.name));
+        std::fs::write(&path, c).expect("write source");
+        compile_object(&dir, &path, &dir);
+        n += 1;
+    }
+    assert!(n >= 10, "only {n} corpus specs compile");
+}

@@ -150,10 +150,11 @@ test_tools::spec_tests! {
     default: [
         clamp_gap, division_method, infinite_const, infinite_product, no_input, no_state,
         pinned_let_type, recip_method, s21_zero_const, threshold_ge, thresholds_all_ops,
-        tiny_factor_chain, tiny_period, tiny_range, truncated, u64_input, unbalanced,
-        vanishing_addend,
+        table_cancellation, table_dead_and_constant, table_on_grid, tiny_factor_chain,
+        tiny_period, tiny_range, truncated, u64_input, unbalanced, vanishing_addend, vector_33,
     ];
-    acceptance: [];
+    // A minute in a debug build: 256 inputs and states, each swept over its candidates.
+    acceptance: [vector_256];
 }
 
 /// A random spec (seed 1795571380726870180) on which the printed bound of `y` was 1 unit of its

@@ -16,6 +16,7 @@ qloop_macros::controller!("fixtures/refute/property_sign_error.qloop");
 qloop_macros::controller!("fixtures/refute/recip_tracker_gain_too_large.qloop");
 qloop_macros::controller!("fixtures/refute/rls_unbounded_covariance.qloop");
 qloop_macros::controller!("fixtures/refute/table_claim_too_small.qloop");
+qloop_macros::controller!("fixtures/refute/table_claim_cancellation.qloop");
 qloop_macros::controller!("fixtures/refute/determinant_bound_too_high.qloop");
 qloop_macros::controller!("fixtures/refute/supervisor_switches_early.qloop");
 qloop_macros::controller!("fixtures/refute/pole_placement_sign_error.qloop");
@@ -236,6 +237,28 @@ fn table_claim_too_small_is_exceeded_by_compiled_code() {
     );
 }
 
+/// The compiled table of `(v + 1e8)² − 1e16` misses the expression, computed here in exact
+/// rationals, by more than the claimed 1e-4 at the counterexample (a segment's midpoint).
+#[test]
+fn table_claim_cancellation_is_exceeded_by_compiled_code() {
+    use num_traits::Signed;
+    use qloop_tests::exact::{of_f64, of_raw, Q};
+    let (plan, o) = refuted("table_claim_cancellation");
+    let x = cex(&o, "x") as f64 * 2f64.powi(-40);
+    let ids = |k| plan.prog.ids_of(k).next().unwrap();
+    let (qx, qy) = (
+        plan.format(ids(qloop::ir::SigKind::Input)),
+        plan.format(ids(qloop::ir::SigKind::Output)),
+    );
+    let raw = qx.raw_nearest(x);
+    let out = table_claim_cancellation::Controller::new().step_bits([raw as i64]);
+    let v = of_raw(raw, qx.frac);
+    let c = Q::from_integer(100_000_000.into());
+    let exact = (&v + &c) * (&v + &c) - Q::from_integer(10_000_000_000_000_000i64.into());
+    let err = (of_raw(out[0].into(), qy.frac) - exact).abs();
+    assert!(err > of_f64(1e-4), "|y - f({x})| = {err} within the claim");
+}
+
 /// The reset test accepts a product of at least 1 and the invariant claims 1.0625: from a
 /// pre-state inside the invariant, the compiled step stores a pair whose product is below it.
 /// (The emitter bug this guards against, two products under one name in the linear
@@ -295,6 +318,7 @@ fn corpus_is_complete() {
             "rls_unbounded_covariance",
             "rule_counter_off_by_one",
             "supervisor_switches_early",
+            "table_claim_cancellation",
             "table_claim_too_small"
         ]
     );

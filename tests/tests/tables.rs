@@ -2,7 +2,10 @@
 //! independent truths:
 //!
 //! * the f64 reference equals the linear interpolation of the expression's samples, computed
-//!   here from the formulas themselves;
+//!   here from the formulas themselves (1/x) or checked against them (f2, within 1e-14);
+//! * a table of an expression that cancels in f64 is sampled exactly, and its output holds its
+//!   bound against the expression in rationals; a claim below the exact interpolation error
+//!   (h²/4 for a quadratic) is refuted at a midpoint (issue 35);
 //! * the generated fixed-point step equals qloop's plan interpreter bit for bit, for any raw
 //!   input (in range or not);
 //! * the output's printed error bound holds against the function itself: exactly (rationals)
@@ -46,6 +49,19 @@ fn interp(f: impl Fn(f64) -> f64, a: f64, b: f64, h: f64, x: f64) -> f64 {
 
 #[test]
 fn the_reference_interpolates_the_samples_of_the_expression() {
+    // The samples of 1/x are the correctly rounded quotients (exact sampling, issue 35, gives
+    // the f64 nearest the exact value); those of f2, with `exp`, are the f64 nearest the
+    // middle of an enclosure a few ulps wide, within 1e-14 (relative) of its f64 evaluation.
+    let p = plan();
+    let f2_samples = &p.prog.tables[1].samples;
+    for (i, s) in f2_samples.iter().enumerate() {
+        let want = f2(i as f64 * 0.25);
+        assert!(
+            (s - want).abs() <= 1e-14 * want.abs(),
+            "f2 sample {i}: {s} vs {want}"
+        );
+    }
+    let f2_sampled = |x: f64| f2_samples[(x / 0.25) as usize];
     let mut r = tables_ref::Reference::new();
     for k in 0..=2000 {
         let d = 0.4 + 8.0 * k as f64 / 2000.0;
@@ -58,7 +74,7 @@ fn the_reference_interpolates_the_samples_of_the_expression() {
         );
         assert_eq!(
             o.f2,
-            interp(f2, 0.0, 10.0, 0.25, eta.clamp(0.0, 10.0)),
+            interp(f2_sampled, 0.0, 10.0, 0.25, eta.clamp(0.0, 10.0)),
             "eta = {eta}"
         );
     }
@@ -168,5 +184,71 @@ fn the_step_has_no_division_and_only_masked_indices() {
             "unmasked: {}",
             &tail[..end + 1]
         );
+    }
+}
+
+/// Issue 35: `(v + 1e8)² − 1e16` cancels in f64 (at v = 1 an f64 evaluation gives 200000000,
+/// the exact value is 200000001). The samples are exact to the nearest f64, the claim 0.01 is
+/// proved, and the output holds its printed bound against the expression itself, computed
+/// here in rationals, for raw inputs across the range and beyond.
+#[test]
+fn a_cancelling_expression_is_sampled_exactly_and_its_bound_holds() {
+    let src = std::fs::read_to_string(
+        test_tools::workspace_root().join("tests/fixtures/claims/table_cancellation.qloop"),
+    )
+    .unwrap();
+    let p = qloop::compile_str(&src, &qloop::Target::default()).expect("compiles");
+    let t = &p.prog.tables[0];
+    let exact = |v: &Q| {
+        let c = Q::from_integer(100_000_000.into());
+        (v + &c) * (v + &c) - Q::from_integer(10_000_000_000_000_000i64.into())
+    };
+    // Every sample is the exact value (all are integers or short binary fractions here).
+    for (i, s) in t.samples.iter().enumerate() {
+        let v = of_f64(t.lo + i as f64 * t.step);
+        assert_eq!(of_f64(*s), exact(&v), "sample {i}");
+    }
+    assert_eq!(t.samples[16], 200_000_001.0);
+    // The interpolation error of a quadratic with f'' = 2 is h²/4 at each midpoint.
+    let worst = t.step * t.step / 4.0;
+    assert!(
+        t.interp_err >= worst && t.interp_err <= 1.01 * worst,
+        "{}",
+        t.interp_err
+    );
+    assert_eq!(t.claim_verdict(), Some(TableClaim::Proved));
+    let (x, y) = (
+        p.prog.ids_of(SigKind::Input).next().unwrap(),
+        p.prog.ids_of(SigKind::Output).next().unwrap(),
+    );
+    let (fx, fy, ey) = (p.format(x), p.format(y), p.summary[y.0].err);
+    for k in -64..=1088i64 {
+        let rx = fx.raw_floor(k as f64 / 1024.0);
+        let mut v = vec![0i128; p.prog.signals.len()];
+        v[x.0] = rx;
+        step_fixed(&p, &mut v).expect("every value in its proved interval");
+        let xc = of_raw(rx, fx.frac).clamp(of_f64(0.0), of_f64(1.0));
+        let err = (of_raw(v[y.0], fy.frac) - exact(&xc)).abs();
+        assert!(err <= of_f64(ey), "x = {xc}: error {err} > {ey}");
+    }
+}
+
+/// The same expression claiming less than its true interpolation error h²/4: refuted at a
+/// segment's midpoint, with the exact error as the witness.
+#[test]
+fn a_claim_below_the_exact_interpolation_error_is_refuted() {
+    let src = std::fs::read_to_string(
+        test_tools::workspace_root().join("tests/fixtures/refute/table_claim_cancellation.qloop"),
+    )
+    .unwrap();
+    let p = qloop::compile_str(&src, &qloop::Target::default()).expect("compiles");
+    let t = &p.prog.tables[0];
+    match t.claim_verdict() {
+        Some(TableClaim::Refuted { x, err }) => {
+            let u = (x - t.lo) / t.step;
+            assert_eq!(u - u.floor(), 0.5, "witness at {x}, not a midpoint");
+            assert_eq!(err, t.step * t.step / 4.0);
+        }
+        other => panic!("claim not refuted: {other:?}"),
     }
 }

@@ -79,7 +79,8 @@ pub struct Table {
     pub hi: f64,
     /// The grid step `H`, a power of two.
     pub step: f64,
-    /// `f(A + i·H)` for `i = 0..=N`, each the f64 value of the expression.
+    /// `f(A + i·H)` for `i = 0..=N`: the f64 nearest the middle of an exact enclosure of the
+    /// expression's value (rational arithmetic; `check::enclose`), not an f64 evaluation.
     pub samples: Vec<f64>,
     /// The argument's unit.
     pub in_unit: Option<String>,
@@ -87,12 +88,16 @@ pub struct Table {
     pub unit: Option<String>,
     /// A proved bound on `|L(x) − f(x)|` over `[lo, hi]`: `H²/8·max |f''|` per segment (the
     /// remainder of linear interpolation, with `f''` bounded by interval arithmetic), plus the
-    /// f64 rounding of the samples.
+    /// largest distance of a sample from the exact value (exact rationals), rounded up.
     pub interp_err: f64,
     /// `, error E`: the interpolation error the spec claims, a proof obligation.
     pub claim: Option<f64>,
-    /// The largest `|L(x) − f(x)|` found at 15 points inside each segment, and where: a
-    /// lower bound on the true interpolation error (a claim below it is false).
+    /// f64 bounds on the claim's exact value `[lower, upper]` (a decimal such as 0.01 is not
+    /// an f64): proved against the lower, refuted against the upper.
+    pub claim_bounds: Option<(f64, f64)>,
+    /// The largest lower bound on `|L(x) − f(x)|` found at the grid points and 15 points
+    /// inside each segment (L exact over the samples, f enclosed in exact arithmetic), and
+    /// where: a claim below it is false.
     pub witness: (f64, f64),
     /// Doc lines.
     pub docs: Vec<String>,
@@ -105,7 +110,7 @@ pub struct Table {
 pub enum TableClaim {
     /// The curvature bound is at most the claim.
     Proved,
-    /// `|L(x) − f(x)|` exceeds the claim at `x` (by more than the f64 evaluation could err).
+    /// `|L(x) − f(x)|` exceeds the claim at `x`, in exact arithmetic.
     Refuted {
         /// Where.
         x: f64,
@@ -120,11 +125,11 @@ impl Table {
     /// The verdict on the claimed interpolation error, if there is a claim.
     pub fn claim_verdict(&self) -> Option<TableClaim> {
         let c = self.claim?;
+        let (lo, hi) = self.claim_bounds.unwrap_or((c, c));
         let (x, err) = self.witness;
-        let smax = self.samples.iter().fold(0f64, |m, s| m.max(s.abs()));
-        Some(if self.interp_err <= c {
+        Some(if self.interp_err <= lo {
             TableClaim::Proved
-        } else if err > c + smax * 2f64.powi(-40) {
+        } else if err > hi {
             TableClaim::Refuted { x, err }
         } else {
             TableClaim::Unknown

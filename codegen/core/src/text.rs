@@ -191,6 +191,12 @@ pub fn bound(v: f64) -> String {
     directed(v, true, |x| format!("{x:.3e}"), |x| sci_unit(x, 3))
 }
 
+/// A lower bound (non-negative) to four significant digits, rounded down: what qloop prints
+/// as "at least" is never above the bound it computed.
+pub fn bound_down(v: f64) -> String {
+    directed(v, false, |x| format!("{x:.3e}"), |x| sci_unit(x, 3))
+}
+
 /// A percentage bound (non-negative) to three significant digits, rounded up.
 pub fn percent(v: f64) -> String {
     directed(v, true, |x| format!("{x:.2e}"), |x| sci_unit(x, 2))
@@ -239,6 +245,11 @@ mod tests {
             9.999e-1,
         ] {
             assert_ne!(decimal_cmp(&bound(v), v), Some(Ordering::Less), "{v}");
+            assert_ne!(
+                decimal_cmp(&bound_down(v), v),
+                Some(Ordering::Greater),
+                "{v}"
+            );
             assert_ne!(decimal_cmp(&g_up(v), v), Some(Ordering::Less), "{v}");
             assert_ne!(decimal_cmp(&g_down(v), v), Some(Ordering::Greater), "{v}");
             assert_ne!(decimal_cmp(&g_up(-v), -v), Some(Ordering::Less), "{v}");

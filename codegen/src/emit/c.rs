@@ -593,7 +593,8 @@ fn table_array(plan: &Plan, i: usize, delta: bool) -> String {
 /// with `pgm_read_*`: a table in RAM would cost the ATmega328P's scarce 2 KiB), padded to a
 /// power of two like the Rust output's.
 fn table_arrays(plan: &Plan) -> String {
-    if plan.tables.is_empty() {
+    let read = super::table_arrays_read(plan);
+    if read.iter().flatten().all(|r| !r) {
         return String::new();
     }
     let mut o = String::from(
@@ -615,9 +616,15 @@ fn table_arrays(plan: &Plan) -> String {
          #endif\n\n",
     );
     for (i, t) in plan.tables.iter().enumerate() {
+        if read[i] == [false, false] {
+            continue;
+        }
         let len = super::table_len(t);
         let _ = writeln!(o, "/*{} */", super::table_doc(plan, i));
         for delta in [false, true] {
+            if !read[i][usize::from(delta)] {
+                continue;
+            }
             let (ty, src) = if delta {
                 (t.delta_ty, &t.deltas)
             } else {

@@ -358,10 +358,11 @@ fn phase_two(
 }
 
 /// The claimed interpolation errors of the tables (`table .., error E;`), decided by qloop:
-/// proved where the curvature bound (second derivative in interval arithmetic,
-/// [`crate::ir::Table::interp_err`]) is at most the claim; refuted, with the table's argument
-/// as the counterexample (variable `x`, its value in units of 2^-40), where the interpolant
-/// misses the expression by more than the claim at a sampled point; else unknown.
+/// proved where the bound (second derivative in interval arithmetic plus the samples' distance
+/// from the exact values, [`crate::ir::Table::interp_err`]) is at most the claim; refuted, with
+/// the table's argument as the counterexample (variable `x`, its value in units of 2^-40),
+/// where the interpolant misses the expression, enclosed in exact arithmetic, by more than the
+/// claim at a sampled point; else unknown.
 fn table_claims(plan: &Plan) -> Vec<Outcome> {
     use crate::ir::TableClaim;
     plan.prog
@@ -393,7 +394,7 @@ fn table_claims(plan: &Plan) -> Vec<Outcome> {
                     Verdict::Proved,
                     None,
                     format!(
-                        "by qloop: the curvature bound {} is at most the claim",
+                        "by qloop: the bound {} (curvature and samples, exact) is at most the claim",
                         crate::text::bound(t.interp_err)
                     ),
                 ),
@@ -403,16 +404,16 @@ fn table_claims(plan: &Plan) -> Vec<Outcome> {
                         values: vec![("x".into(), (x * 2f64.powi(40)).round() as i128, 64)],
                     }),
                     format!(
-                        "by qloop: at x = {}, |L(x) - f(x)| = {} (f64) exceeds the claim",
+                        "by qloop: at x = {}, |L(x) - f(x)| >= {} (exact) exceeds the claim",
                         crate::text::g(x),
-                        crate::text::bound(err)
+                        crate::text::bound_down(err)
                     ),
                 ),
                 TableClaim::Unknown => (
                     Verdict::Unknown,
                     None,
                     format!(
-                        "by qloop: the curvature bound {} is above the claim and no sampled point exceeds it",
+                        "by qloop: the bound {} is above the claim and no sampled point exceeds it",
                         crate::text::bound(t.interp_err)
                     ),
                 ),

@@ -10,6 +10,7 @@ use crate::qformat::{IntTy, QFormat, Rounding, WIDTHS};
 
 mod const_eval;
 pub(crate) mod curvature;
+mod enclose;
 mod props;
 mod table;
 mod track;

@@ -7,12 +7,16 @@
 //! its offset from `A` (`lower`). At most [`MAX_SEGMENTS`] segments.
 
 use super::curvature::{Dual, Trouble, I};
+use super::enclose::{f64_down, f64_up, rat, to_f64, Enc};
 use super::units::{self, ParamUnits, Ty};
 use super::{path_ident, Checker};
 use crate::diag::{Diag, Result};
 use crate::ir::{Expr, Table};
 use crate::lang::ast::TableDecl;
 use crate::lang::parse::doc_lines;
+use num_bigint::BigInt;
+use num_rational::BigRational;
+use num_traits::Zero;
 use proc_macro2::Span;
 use syn::spanned::Spanned;
 use syn::{BinOp, Expr as SExpr, UnOp};
@@ -76,51 +80,84 @@ impl Checker {
             Ty::Lit => Ty::declared(None)?,
             u => u,
         };
-        // The samples, the expression evaluated at each grid point.
+        // The samples: the expression at each grid point, the f64 nearest the middle of its
+        // exact enclosure (`enclose`), so that no cancellation of an f64 evaluation gets into
+        // the table; and how far each may be from the exact value.
         let mut samples = Vec::with_capacity(n + 1);
+        let mut sample_err = BigRational::zero();
         for i in 0..=n {
             let x = a + i as f64 * h;
-            self.consts.insert(var.clone(), (x, t.var.span()));
-            let v = self.const_eval(&t.value);
-            self.consts.remove(&var);
-            samples.push(v.map_err(|d| {
+            let at = |d: Diag| {
                 let at = format!(" (at {var} = {})", crate::text::g(x));
                 Diag {
                     message: d.message.clone() + &at,
                     ..d
                 }
-            })?);
+            };
+            // The f64 evaluation reports what is undefined, at its operator.
+            self.consts.insert(var.clone(), (x, t.var.span()));
+            let v = self.const_eval(&t.value);
+            self.consts.remove(&var);
+            v.map_err(at)?;
+            let enc = self.enclose(&t.value, Some((&var, &rat(x)))).ok_or_else(|| {
+                at(Diag::new(t.value.span(), "cannot bound the exact value of the table's expression here")
+                    .help("qloop samples a table in exact arithmetic: keep the expression defined, and its numbers within the f64 range, on the whole grid"))
+            })?;
+            let s = to_f64(&enc.mid());
+            if !s.is_finite() {
+                return Err(at(Diag::new(
+                    t.value.span(),
+                    "the table's value is beyond the f64 range here",
+                )));
+            }
+            sample_err = sample_err.max(enc.dist_max(&rat(s)));
+            samples.push(s);
         }
-        // The interpolation error: h²/8·max|f''| per segment, and the samples' own rounding.
+        // The interpolation error: h²/8·max|f''| per segment, plus the samples' distance from
+        // the exact values (the interpolant of the samples is within that of the interpolant
+        // of the exact values).
         let mut interp = 0f64;
         for i in 0..n {
             let x = I::new(a + i as f64 * h, a + (i + 1) as f64 * h);
             let d = self.dual_eval(&t.value, &var, Dual::variable(x))?;
             interp = interp.max(h * h / 8.0 * d.d2.mag());
         }
-        let smax = samples.iter().fold(0f64, |m, s| m.max(s.abs()));
-        // f64 sampling: within a few ulps (libm's exp, ln, powf) per operation; 2^-40 of the
-        // largest sample covers expressions of up to thousands of operations.
-        let interp_err = (interp + smax * 2f64.powi(-40)) * (1.0 + 1e-9);
-        // A witness: |L(x) − f(x)| at 15 points inside each segment.
+        // h²/8 is exact (h is a power of two); the product and the sum round up.
+        let interp_err = f64_up(&(rat(interp.next_up()) + sample_err));
+        // A witness: a lower bound on |L(x) − f(x)| at the grid points and 15 points inside
+        // each segment, L exact over the samples and f enclosed.
         let mut witness = (a, 0f64);
+        let mut best = BigRational::zero();
         for i in 0..n {
-            for j in 1..16 {
-                let u = j as f64 / 16.0;
-                let x = a + (i as f64 + u) * h;
-                self.consts.insert(var.clone(), (x, t.var.span()));
-                let f = self.const_eval(&t.value);
-                self.consts.remove(&var);
-                let l = samples[i] + u * (samples[i + 1] - samples[i]);
-                if let Ok(f) = f {
-                    if (l - f).abs() > witness.1 {
-                        witness = (x, (l - f).abs());
-                    }
+            for j in 0..16 {
+                let u = BigRational::new(BigInt::from(j), BigInt::from(16));
+                let xr = rat(a) + (BigRational::from_integer(BigInt::from(i)) + &u) * rat(h);
+                let Some(f) = self.enclose(&t.value, Some((&var, &xr))) else {
+                    continue;
+                };
+                let (si, sj) = (rat(samples[i]), rat(samples[i + 1]));
+                let l = &si + &u * (&sj - &si);
+                let lb = f.dist_min(&l);
+                if lb > best {
+                    witness = (to_f64(&xr), f64_down(&lb));
+                    best = lb;
                 }
             }
         }
+        let last = self.enclose(&t.value, Some((&var, &rat(b))));
+        if let Some(f) = last {
+            let lb = f.dist_min(&rat(samples[n]));
+            if lb > best {
+                witness = (b, f64_down(&lb));
+            }
+        }
+        // The claim's enclosure: proved against its lower end, refuted against its upper.
         let claim = match &t.error {
-            Some(e) => Some(self.const_eval(e)?),
+            Some(e) => {
+                let c = self.const_eval(e)?;
+                let enc = self.enclose(e, None).unwrap_or_else(|| Enc::point(rat(c)));
+                Some((c, f64_down(&enc.lo), f64_up(&enc.hi)))
+            }
             None => None,
         };
         self.tables.push(Table {
@@ -132,7 +169,8 @@ impl Checker {
             in_unit: t.unit.as_ref().map(|u| u.value()),
             unit: out_unit.report_text(),
             interp_err,
-            claim,
+            claim: claim.map(|c| c.0),
+            claim_bounds: claim.map(|c| (c.1, c.2)),
             witness,
             docs: doc_lines(&t.attrs),
             span: t.name.span(),

@@ -280,6 +280,36 @@ pub fn array_ty(dims: &[usize], elem: TokenStream) -> TokenStream {
     })
 }
 
+/// `Default` for an API struct of `members`, as `(derive, impl)`: `Default,` in the derive
+/// list while every array has at most 32 elements per dimension (the limit of the standard
+/// library's `Default` for arrays); past it an `impl Default` with `[Default::default(); N]`
+/// per field (the element types are `Copy`), and nothing in the derive list.
+pub fn default_impl(prog: &Program, name: &str, members: &[Member]) -> (TokenStream, TokenStream) {
+    if members.iter().all(|m| m.dims().iter().all(|&d| d <= 32)) {
+        return (quote::quote! { Default, }, TokenStream::new());
+    }
+    let strukt = quote::format_ident!("{}", name);
+    let fields = members.iter().map(|m| {
+        let n = quote::format_ident!("{}", m.name(prog));
+        let v = m.dims().iter().rev().fold(
+            quote::quote! { ::core::default::Default::default() },
+            |v, d| {
+                let d = proc_macro2::Literal::usize_unsuffixed(*d);
+                quote::quote! { [#v; #d] }
+            },
+        );
+        quote::quote! { #n: #v, }
+    });
+    let imp = quote::quote! {
+        impl ::core::default::Default for #strukt {
+            fn default() -> Self {
+                Self { #(#fields)* }
+            }
+        }
+    };
+    (TokenStream::new(), imp)
+}
+
 /// A signal as a field access path in Rust: `fc`, `theta[0]`, `P[1][0]`.
 pub fn field_path(prog: &Program, id: SigId) -> TokenStream {
     let s = prog.sig(id);
@@ -297,6 +327,33 @@ pub fn field_path(prog: &Program, id: SigId) -> TokenStream {
             quote::quote! { #n #([#idx])* }
         }
     }
+}
+
+/// Which arrays of each lowered table (`[entries, differences]`) the step reads. A call
+/// removed as dead, a constant argument (folded) or an argument on the grid (no
+/// interpolation, so no differences) leaves an array unread; the emitters leave it out, since
+/// C compilers warn of an unused `static const` and rustc of an unused `const`.
+pub fn table_arrays_read(plan: &Plan) -> Vec<[bool; 2]> {
+    use crate::lower::lir::{LStmt, Op};
+    fn walk(plan: &Plan, body: &[LStmt], out: &mut Vec<[bool; 2]>) {
+        for st in body {
+            match st {
+                LStmt::Def(id) => {
+                    if let Op::Lookup { table, delta, .. } = plan.val(*id).op {
+                        out[table][usize::from(delta)] = true;
+                    }
+                }
+                LStmt::Store(..) => {}
+                LStmt::If(_, t, e) => {
+                    walk(plan, t, out);
+                    walk(plan, e, out);
+                }
+            }
+        }
+    }
+    let mut out = vec![[false; 2]; plan.tables.len()];
+    walk(plan, &plan.body, &mut out);
+    out
 }
 
 /// The length of a table's arrays: `N + 1` entries padded to a power of two, so that a

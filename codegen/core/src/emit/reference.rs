@@ -44,6 +44,9 @@ pub fn module(plan: &Plan) -> TokenStream {
         quote! { #n: #v, }
     };
     let (fi, fo, fs) = (fields(&mi), fields(&mo), fields(&ms));
+    let (di, ii) = super::default_impl(prog, "Inputs", &mi);
+    let (do_, io) = super::default_impl(prog, "Outputs", &mo);
+    let (ds, is) = super::default_impl(prog, "States", &ms);
     let raw_fields = ms.iter().map(|m| {
         let n = format_ident!("{}", m.name(prog));
         let ty = super::array_ty(m.dims(), quote! { f64 });
@@ -134,14 +137,17 @@ pub fn module(plan: &Plan) -> TokenStream {
             #table_fns
 
             /// Inputs of one step (clamped to their declared ranges on entry).
-            #[derive(Clone, Copy, Debug, Default, PartialEq)]
+            #[derive(Clone, Copy, Debug, #di PartialEq)]
             pub struct Inputs { #(#fi)* }
+            #ii
             /// Outputs of one step.
-            #[derive(Clone, Copy, Debug, Default, PartialEq)]
+            #[derive(Clone, Copy, Debug, #do_ PartialEq)]
             pub struct Outputs { #(#fo)* }
+            #io
             /// A snapshot of the states.
-            #[derive(Clone, Copy, Debug, Default, PartialEq)]
+            #[derive(Clone, Copy, Debug, #ds PartialEq)]
             pub struct States { #(#fs)* }
+            #is
             /// The reference controller.
             #[derive(Clone, Copy, Debug, PartialEq)]
             pub struct Reference { #(#raw_fields)* }

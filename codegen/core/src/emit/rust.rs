@@ -122,18 +122,24 @@ fn api_structs(plan: &Plan, sigs: &Sigs) -> TokenStream {
     let in_fields = sigs.in_fields.iter().map(field);
     let out_fields = sigs.out_fields.iter().map(field);
     let st_fields = sigs.state_fields.iter().map(field);
+    let (di, ii) = super::default_impl(&plan.prog, "Inputs", &sigs.in_fields);
+    let (do_, io) = super::default_impl(&plan.prog, "Outputs", &sigs.out_fields);
+    let (ds, is) = super::default_impl(&plan.prog, "States", &sigs.state_fields);
     quote! {
         /// Inputs of one step. Each is clamped to its declared range on entry.
-        #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+        #[derive(Clone, Copy, Debug, #di PartialEq, Eq)]
         pub struct Inputs { #(#in_fields)* }
+        #ii
 
         /// Outputs of one step.
-        #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+        #[derive(Clone, Copy, Debug, #do_ PartialEq, Eq)]
         pub struct Outputs { #(#out_fields)* }
+        #io
 
         /// A snapshot of the controller's states.
-        #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+        #[derive(Clone, Copy, Debug, #ds PartialEq, Eq)]
         pub struct States { #(#st_fields)* }
+        #is
     }
 }
 
@@ -493,11 +499,15 @@ fn table_name(plan: &Plan, table: usize, delta: bool) -> (Ident, Literal) {
 
 /// The table arrays of the step: `const` arrays, padded to a power of two.
 fn table_arrays(plan: &Plan) -> TokenStream {
+    let read = super::table_arrays_read(plan);
     let items = plan.tables.iter().enumerate().map(|(i, t)| {
         let len = super::table_len(t);
         let doc = super::table_doc(plan, i);
         let mut out = TokenStream::new();
         for delta in [false, true] {
+            if !read[i][usize::from(delta)] {
+                continue;
+            }
             let (name, _) = table_name(plan, i, delta);
             let (ty, src) = if delta {
                 (t.delta_ty, &t.deltas)
