@@ -10,7 +10,10 @@
 //! * thresholds inside the compared signal's range, both on and off its grid;
 //! * range bounds off the grid (`[0, 0.99]`) as well as on it;
 //! * unsigned and signed `#[q(..)]` pins and `#[lsb(..)]` requests on inputs and states;
-//! * specs with no state.
+//! * specs with no state;
+//! * (issue 35) a table of `(v + C)·(v + C) − C·C` with `C` up to 1e8, which cancels in f64,
+//!   called on `a`; and an input vector `v` of 1, 33 or 40 elements (past the standard
+//!   library's 32 for `Default` on arrays), its first and last elements summed into `y`.
 
 use proptest::prelude::*;
 
@@ -228,6 +231,10 @@ struct Shape {
     z: Option<(f64, f64)>,
     nearest: bool,
     word: u32,
+    /// The table's `C = 10^j` and grid step `2^-k`, if the spec has one.
+    table: Option<(u32, u32)>,
+    /// The input vector's length, if the spec has one.
+    vector: Option<usize>,
 }
 
 fn shape() -> BoxedStrategy<Shape> {
@@ -237,14 +244,20 @@ fn shape() -> BoxedStrategy<Shape> {
         prop::option::weighted(0.4, range()),
         any::<bool>(),
         prop::sample::select(vec![16u32, 32, 32, 32, 64]),
+        prop::option::weighted(0.2, (0u32..=8, 2u32..=5)),
+        prop::option::weighted(0.2, prop::sample::select(vec![1usize, 33, 40])),
     )
-        .prop_map(|((a, b), (s, t, n), z, nearest, word)| Shape {
-            inputs: vec![a, b],
-            states: [s, t].into_iter().take(n).collect(),
-            z,
-            nearest,
-            word,
-        })
+        .prop_map(
+            |((a, b), (s, t, n), z, nearest, word, table, vector)| Shape {
+                inputs: vec![a, b],
+                states: [s, t].into_iter().take(n).collect(),
+                z,
+                nearest,
+                word,
+                table,
+                vector,
+            },
+        )
         .boxed()
 }
 
@@ -286,6 +299,16 @@ pub fn spec() -> impl Strategy<Value = RandomSpec> {
                 for d in &sh.states {
                     src += &decl("state", d);
                 }
+                if let Some(n) = sh.vector {
+                    src += &format!("    input v[{n}]: [-1.0, 1.0];\n");
+                }
+                if let Some((j, k)) = sh.table {
+                    let c = lit(10f64.powi(j as i32));
+                    src += &format!(
+                        "    table f(w: [-4.0, 4.0]) = (w + {c}) * (w + {c}) - {c} * {c}, step {};\n",
+                        lit(2f64.powi(-(k as i32)))
+                    );
+                }
                 src += "    output y;\n";
                 if let Some(r) = sh.z {
                     src += &format!("    output z: [{}, {}];\n", lit(r.0), lit(r.1));
@@ -301,7 +324,14 @@ pub fn spec() -> impl Strategy<Value = RandomSpec> {
                         );
                     }
                 }
-                src += &format!("        y = {e3} + l0;\n");
+                let mut y = format!("{e3} + l0");
+                if let Some(n) = sh.vector {
+                    y += &format!(" + v[0] + v[{}]", n - 1);
+                }
+                if sh.table.is_some() {
+                    y += " + f(a)";
+                }
+                src += &format!("        y = {y};\n");
                 if sh.z.is_some() {
                     src += &format!("        if {c1} {{ z = {e4}; }} else {{ z = {e5}; }}\n");
                 }

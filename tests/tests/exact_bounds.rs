@@ -148,7 +148,8 @@ fn printed_bounds_hold_on_the_claim_corpus(stem: &str) {
 test_tools::spec_tests! {
     printed_bounds_hold_on_the_claim_corpus in "tests/fixtures/claims";
     default: [
-        clamp_gap, division_method, infinite_const, infinite_product, no_input, no_state,
+        clamp_gap, division_method, infinite_const, infinite_product, newton_recip_range_spans_zero,
+        no_input, no_state,
         pinned_let_type, recip_method, s21_zero_const, threshold_ge, thresholds_all_ops,
         table_cancellation, table_dead_and_constant, table_on_grid, tiny_factor_chain,
         tiny_period, tiny_range, truncated, u64_input, unbalanced, vanishing_addend, vector_33,

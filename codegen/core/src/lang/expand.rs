@@ -1006,6 +1006,18 @@ impl Expander {
         let (Some(lo), Some(hi), 2) = (r.elems.first(), r.elems.get(1), r.elems.len()) else {
             return Err(Diag::new(range.span(), "expected `[LO, HI]`").help(HELP));
         };
+        // Literal ends are checked here, where the message can say what is wrong (named
+        // constants are checked where they are evaluated).
+        if let (Some(l), Some(h)) = (literal_number(lo), literal_number(hi)) {
+            if !(0.0 < l && l < h) {
+                return Err(Diag::new(
+                    range.span(),
+                    format!("`newton_recip` needs 0 < LO < HI; the range is [{l}, {h}]"),
+                )
+                .label("not 0 < LO < HI")
+                .help("the reciprocal is taken of `d` clamped to [LO, HI]: give a positive range that excludes 0, e.g. [0.25, 4.0]"));
+            }
+        }
         let steps = self.int(k)?;
         if !(1..=MAX_NEWTON_STEPS).contains(&steps) {
             return Err(Diag::new(
@@ -1232,6 +1244,21 @@ fn path(name: &str, span: Span) -> Expr {
 fn path_ident(e: &Expr) -> Option<Ident> {
     match e {
         Expr::Path(p) if p.qself.is_none() => p.path.get_ident().cloned(),
+        _ => None,
+    }
+}
+
+/// The value of a numeric literal, possibly negated (`2.0`, `-1`), or `None`.
+fn literal_number(e: &Expr) -> Option<f64> {
+    match e {
+        Expr::Lit(l) => match &l.lit {
+            syn::Lit::Float(f) => f.base10_parse().ok(),
+            syn::Lit::Int(i) => i.base10_parse::<i64>().ok().map(|v| v as f64),
+            _ => None,
+        },
+        Expr::Unary(u) if matches!(u.op, syn::UnOp::Neg(_)) => literal_number(&u.expr).map(|v| -v),
+        Expr::Paren(p) => literal_number(&p.expr),
+        Expr::Group(g) => literal_number(&g.expr),
         _ => None,
     }
 }

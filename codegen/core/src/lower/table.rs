@@ -62,7 +62,32 @@ impl Lowerer<'_> {
     ) -> Result<ValId> {
         let tab = self.prog.tables[t].clone();
         let k = -(tab.step.log2().round() as i32);
-        let x0 = self.expr(arg, NO_CTX, out)?;
+        let mut x0 = self.expr(arg, NO_CTX, out)?;
+        // The offset from A and the clamp constants A and B, at the argument's precision, must
+        // fit the word: an argument with more fraction bits than that (a narrow range in a
+        // 64-bit word) is rounded to the finest precision that fits, its error counted.
+        let (na, nb) = ((tab.lo / tab.step) as i128, (tab.hi / tab.step) as i128);
+        let m = na.abs().max(nb.abs()).max(nb - na).max(1);
+        let bitlen = 128 - m.leading_zeros() as i32;
+        let s_max = self.prog.word as i32 - 1 - bitlen;
+        if s_max < 0 {
+            return Err(Diag::new(
+                span,
+                format!(
+                    "table `{}`: its grid of {} steps from {} does not fit {}-bit words",
+                    tab.name,
+                    nb - na,
+                    crate::text::g(tab.lo),
+                    self.prog.word
+                ),
+            )
+            .help("use a wider `word` or a coarser step"));
+        }
+        let f_max = k + s_max;
+        if self.v(x0).frac > f_max {
+            let n = (self.v(x0).frac - f_max) as u32;
+            x0 = self.round(x0, n, span, out)?;
+        }
         let arg_err = self.v(x0).err;
         let mut x = x0;
         let f0 = self.v(x).frac;
@@ -71,7 +96,6 @@ impl Lowerer<'_> {
         }
         let fa = self.v(x).frac;
         let s = (fa - k) as u32;
-        let (na, nb) = ((tab.lo / tab.step) as i128, (tab.hi / tab.step) as i128);
         let (ra, rb) = (na << s, nb << s);
         // Clamp to [A, B] where the argument reaches beyond.
         let xv = self.v(x).clone();
