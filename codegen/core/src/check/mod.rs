@@ -11,6 +11,7 @@ use crate::qformat::{IntTy, QFormat, Rounding, WIDTHS};
 mod const_eval;
 pub(crate) mod curvature;
 mod enclose;
+mod flags;
 mod props;
 mod table;
 mod track;
@@ -217,6 +218,7 @@ impl Checker {
                 .help("assign it after the `if`, or in both branches"));
             }
         }
+        flags::check(&self.signals, &body)?;
         let (track_props, tracks) = self.track_properties()?;
         prove_items.extend(track_props);
         let (invariants, properties) = self.prove(&prove_items)?;

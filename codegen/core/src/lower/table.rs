@@ -64,24 +64,24 @@ impl Lowerer<'_> {
         let k = -(tab.step.log2().round() as i32);
         let mut x0 = self.expr(arg, NO_CTX, out)?;
         // The offset from A and the clamp constants A and B, at the argument's precision, must
-        // fit the word: an argument with more fraction bits than that (a narrow range in a
-        // 64-bit word) is rounded to the finest precision that fits, its error counted.
+        // fit the widest working type, 64 bits: an argument with more fraction bits than that
+        // (a narrow range in a 64-bit word) is rounded to the finest precision that fits, its
+        // error counted.
         let (na, nb) = ((tab.lo / tab.step) as i128, (tab.hi / tab.step) as i128);
         let m = na.abs().max(nb.abs()).max(nb - na).max(1);
         let bitlen = 128 - m.leading_zeros() as i32;
-        let s_max = self.prog.word as i32 - 1 - bitlen;
+        let s_max = 63 - bitlen;
         if s_max < 0 {
             return Err(Diag::new(
                 span,
                 format!(
-                    "table `{}`: its grid of {} steps from {} does not fit {}-bit words",
+                    "table `{}`: its grid of {} steps from {} does not fit 64-bit integers",
                     tab.name,
                     nb - na,
-                    crate::text::g(tab.lo),
-                    self.prog.word
+                    crate::text::g(tab.lo)
                 ),
             )
-            .help("use a wider `word` or a coarser step"));
+            .help("use a coarser step, or a range nearer 0"));
         }
         let f_max = k + s_max;
         if self.v(x0).frac > f_max {
