@@ -29,6 +29,12 @@ fn plan() -> Plan {
         .expect("tables.qloop compiles")
 }
 
+/// The plan of a spec file of the repository (`path` from the workspace root).
+fn fixture_plan(path: &str) -> Plan {
+    let src = std::fs::read_to_string(test_tools::workspace_root().join(path)).expect(path);
+    qloop::compile_str(&src, &qloop::Target::default()).expect("compiles")
+}
+
 const T: f64 = 2.214e-3;
 
 fn f2(e: f64) -> f64 {
@@ -193,11 +199,7 @@ fn the_step_has_no_division_and_only_masked_indices() {
 /// here in rationals, for raw inputs across the range and beyond.
 #[test]
 fn a_cancelling_expression_is_sampled_exactly_and_its_bound_holds() {
-    let src = std::fs::read_to_string(
-        test_tools::workspace_root().join("tests/fixtures/claims/table_cancellation.qloop"),
-    )
-    .unwrap();
-    let p = qloop::compile_str(&src, &qloop::Target::default()).expect("compiles");
+    let p = fixture_plan("tests/fixtures/claims/table_cancellation.qloop");
     let t = &p.prog.tables[0];
     let exact = |v: &Q| {
         let c = Q::from_integer(100_000_000.into());
@@ -237,11 +239,7 @@ fn a_cancelling_expression_is_sampled_exactly_and_its_bound_holds() {
 /// segment's midpoint, with the exact error as the witness.
 #[test]
 fn a_claim_below_the_exact_interpolation_error_is_refuted() {
-    let src = std::fs::read_to_string(
-        test_tools::workspace_root().join("tests/fixtures/refute/table_claim_cancellation.qloop"),
-    )
-    .unwrap();
-    let p = qloop::compile_str(&src, &qloop::Target::default()).expect("compiles");
+    let p = fixture_plan("tests/fixtures/refute/table_claim_cancellation.qloop");
     let t = &p.prog.tables[0];
     match t.claim_verdict() {
         Some(TableClaim::Refuted { x, err }) => {

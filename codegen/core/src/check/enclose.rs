@@ -67,6 +67,15 @@ fn widen(v: f64, ulps: u32, up: bool) -> f64 {
 }
 
 impl Enc {
+    /// `v` widened outward by four ulps: the allowance for a value computed in f64 by a few
+    /// operations or a library function; `None` past the f64 range.
+    pub fn around(v: f64) -> Option<Enc> {
+        Some(Enc {
+            lo: rat_finite(widen(v, 4, false))?,
+            hi: rat_finite(widen(v, 4, true))?,
+        })
+    }
+
     /// The point `r`.
     pub fn point(r: BigRational) -> Enc {
         Enc {
@@ -204,11 +213,7 @@ impl Checker {
         var: Option<(&str, &BigRational)>,
     ) -> Option<Enc> {
         if f == "convert" {
-            let k = self.convert_factor(args).ok()?;
-            let k = Enc {
-                lo: rat_finite(widen(k, 4, false))?,
-                hi: rat_finite(widen(k, 4, true))?,
-            };
+            let k = Enc::around(self.convert_factor(args).ok()?)?;
             return Some(self.enclose(args.first()?, var)?.mul(k));
         }
         let a: Vec<Enc> = args

@@ -85,6 +85,7 @@ impl Checker {
         // the table; and how far each may be from the exact value.
         let mut samples = Vec::with_capacity(n + 1);
         let mut sample_err = BigRational::zero();
+        let mut grid: Vec<Enc> = Vec::with_capacity(n + 1);
         for i in 0..=n {
             let x = a + i as f64 * h;
             let at = |d: Diag| {
@@ -112,6 +113,7 @@ impl Checker {
             }
             sample_err = sample_err.max(enc.dist_max(&rat(s)));
             samples.push(s);
+            grid.push(enc);
         }
         // The interpolation error: h²/8·max|f''| per segment, plus the samples' distance from
         // the exact values (the interpolant of the samples is within that of the interpolant
@@ -124,39 +126,42 @@ impl Checker {
         }
         // h²/8 is exact (h is a power of two); the product and the sum round up.
         let interp_err = f64_up(&(rat(interp.next_up()) + sample_err));
-        // A witness: a lower bound on |L(x) − f(x)| at the grid points and 15 points inside
-        // each segment, L exact over the samples and f enclosed.
+        // A witness: a lower bound on |L(x) − f(x)| at the grid points (their enclosures from
+        // above) and 15 points inside each segment, L exact over the samples and f enclosed.
         let mut witness = (a, 0f64);
         let mut best = BigRational::zero();
+        let mut consider = |x: f64, lb: BigRational| {
+            if lb > best {
+                witness = (x, f64_down(&lb));
+                best = lb;
+            }
+        };
+        let srat: Vec<BigRational> = samples.iter().map(|v| rat(*v)).collect();
+        for (i, (f, si)) in grid.iter().zip(&srat).enumerate() {
+            consider(a + i as f64 * h, f.dist_min(si));
+        }
         for i in 0..n {
-            for j in 0..16 {
+            let (si, sj) = (&srat[i], &srat[i + 1]);
+            for j in 1..16 {
                 let u = BigRational::new(BigInt::from(j), BigInt::from(16));
                 let xr = rat(a) + (BigRational::from_integer(BigInt::from(i)) + &u) * rat(h);
-                let Some(f) = self.enclose(&t.value, Some((&var, &xr))) else {
-                    continue;
-                };
-                let (si, sj) = (rat(samples[i]), rat(samples[i + 1]));
-                let l = &si + &u * (&sj - &si);
-                let lb = f.dist_min(&l);
-                if lb > best {
-                    witness = (to_f64(&xr), f64_down(&lb));
-                    best = lb;
+                if let Some(f) = self.enclose(&t.value, Some((&var, &xr))) {
+                    let l = si + &u * (sj - si);
+                    consider(to_f64(&xr), f.dist_min(&l));
                 }
-            }
-        }
-        let last = self.enclose(&t.value, Some((&var, &rat(b))));
-        if let Some(f) = last {
-            let lb = f.dist_min(&rat(samples[n]));
-            if lb > best {
-                witness = (b, f64_down(&lb));
             }
         }
         // The claim's enclosure: proved against its lower end, refuted against its upper.
         let claim = match &t.error {
             Some(e) => {
                 let c = self.const_eval(e)?;
-                let enc = self.enclose(e, None).unwrap_or_else(|| Enc::point(rat(c)));
-                Some((c, f64_down(&enc.lo), f64_up(&enc.hi)))
+                // Where the claim cannot be enclosed exactly, its f64 value widened by four ulps
+                // each way (the allowance `enclose` gives a library function).
+                let (lo, hi) = match self.enclose(e, None).or_else(|| Enc::around(c)) {
+                    Some(enc) => (f64_down(&enc.lo), f64_up(&enc.hi)),
+                    None => (f64::NEG_INFINITY, f64::INFINITY),
+                };
+                Some((c, lo, hi))
             }
             None => None,
         };
