@@ -90,9 +90,20 @@ fn candidates(plan: &Plan) -> (Vec<Vec<i128>>, Vec<Vec<i128>>) {
     (inputs, states)
 }
 
+/// Candidate cases past which [`cases`] packs its sweep into rounds.
+pub const SWEEP_BUDGET: usize = 1_000;
+
 /// Cases for `plan`: each candidate of each signal once (the others drawn at random inside
 /// their ranges, or anywhere in their type for inputs), then `random` cases drawn among all
 /// candidates and random values.
+///
+/// Where that sweep would be more than [`SWEEP_BUDGET`] cases (a vector of 256 states, the
+/// multi-model controller's 1,300), it is packed: in round `r` every signal `k` takes its
+/// candidate `(r + k) mod n_k`, the rest of the case drawn as above, for as many rounds as the
+/// longest candidate list. Every candidate of every signal is still taken once at least, in
+/// cases whose number grows with the candidates of one signal, not with the number of signals
+/// (the per-signal sweep cost the 256-element vector spec 2,500 exact evaluations of 1,300
+/// values each).
 pub fn cases(plan: &Plan, seed: &mut u64, random: usize) -> Vec<Case> {
     let prog = &plan.prog;
     let in_ids: Vec<SigId> = prog.ids_of(SigKind::Input).collect();
@@ -117,18 +128,38 @@ pub fn cases(plan: &Plan, seed: &mut u64, random: usize) -> Vec<Case> {
         states: (0..st_ids.len()).map(|k| rand_state(seed, k)).collect(),
     };
     let mut out = Vec::new();
-    for (k, c) in ci.iter().enumerate() {
-        for &x in c {
+    let sweep: usize = ci.iter().chain(&cs).map(Vec::len).sum();
+    if sweep > SWEEP_BUDGET {
+        let rounds = ci.iter().chain(&cs).map(Vec::len).max().unwrap_or(0);
+        let at = |c: &Vec<i128>, r: usize, k: usize| c.get((r + k) % c.len().max(1)).copied();
+        for r in 0..rounds {
             let mut case = random_case(seed);
-            case.inputs[k] = x;
+            for (k, c) in ci.iter().enumerate() {
+                if let Some(x) = at(c, r, k) {
+                    case.inputs[k] = x;
+                }
+            }
+            for (k, c) in cs.iter().enumerate() {
+                if let Some(x) = at(c, r, k + ci.len()) {
+                    case.states[k] = x;
+                }
+            }
             out.push(case);
         }
-    }
-    for (k, c) in cs.iter().enumerate() {
-        for &x in c {
-            let mut case = random_case(seed);
-            case.states[k] = x;
-            out.push(case);
+    } else {
+        for (k, c) in ci.iter().enumerate() {
+            for &x in c {
+                let mut case = random_case(seed);
+                case.inputs[k] = x;
+                out.push(case);
+            }
+        }
+        for (k, c) in cs.iter().enumerate() {
+            for &x in c {
+                let mut case = random_case(seed);
+                case.states[k] = x;
+                out.push(case);
+            }
         }
     }
     for _ in 0..random {

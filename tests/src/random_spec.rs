@@ -164,7 +164,11 @@ fn expr(leaves: Vec<&'static str>, depth: u32) -> BoxedStrategy<String> {
     if depth == 0 {
         return leaf.boxed();
     }
-    let sub = move || expr(leaves.clone(), depth - 1);
+    // One strategy per depth, shared by every operand (a `BoxedStrategy` clone is a reference
+    // count): building a fresh one per operand made the strategy tree exponential in `depth`,
+    // and building and dropping it was a fifth of drawing a spec.
+    let shared = expr(leaves, depth - 1);
+    let sub = move || shared.clone();
     prop_oneof![
         2 => leaf,
         2 => (sub(), sub()).prop_map(|(x, y)| format!("({x} + {y})")),
@@ -212,7 +216,8 @@ fn cond(leaves: Vec<&'static str>, decls: Vec<Decl>) -> BoxedStrategy<String> {
             }
         })
         .boxed();
-    let plain = cond_of(expr(leaves.clone(), 1), expr(leaves, 1));
+    let shallow = expr(leaves, 1);
+    let plain = cond_of(shallow.clone(), shallow);
     let one = prop_oneof![2 => thresholded, 1 => plain].boxed();
     prop_oneof![
         4 => one.clone(),
@@ -267,9 +272,10 @@ pub fn spec() -> impl Strategy<Value = RandomSpec> {
         let mut leaves: Vec<&'static str> = sh.inputs.iter().map(|d| d.name).collect();
         leaves.extend(sh.states.iter().map(|d| d.name));
         let decls: Vec<Decl> = sh.inputs.iter().chain(&sh.states).cloned().collect();
+        let (deep, shallow) = (expr(leaves.clone(), 2), expr(leaves.clone(), 1));
         (
-            (expr(leaves.clone(), 2), expr(leaves.clone(), 2), expr(leaves.clone(), 2)),
-            (expr(leaves.clone(), 2), expr(leaves.clone(), 1), expr(leaves.clone(), 1)),
+            (deep.clone(), deep.clone(), deep.clone()),
+            (deep, shallow.clone(), shallow),
             (cond(leaves.clone(), decls.clone()), cond(leaves, decls)),
             (any::<bool>(), constant()),
         )

@@ -125,9 +125,18 @@ fn mnemonic(line: &str) -> String {
 /// Disassembly of the function called exactly `symbol` (a Rust symbol's `::h…` hash ignored),
 /// with relocations.
 fn functions(objdump: &Path, obj: &Path, symbol: &str) -> Vec<String> {
-    let out = run(Command::new(objdump)
+    function_in(&disassemble(objdump, obj), symbol)
+}
+
+/// The whole object's disassembly, with relocations and demangled names.
+fn disassemble(objdump: &Path, obj: &Path) -> String {
+    run(Command::new(objdump)
         .args(["-dr", "--demangle", "--no-show-raw-insn"])
-        .arg(obj));
+        .arg(obj))
+}
+
+/// The lines of the function called exactly `symbol` in a disassembly.
+fn function_in(out: &str, symbol: &str) -> Vec<String> {
     let mut lines = Vec::new();
     let mut inside = false;
     for l in out.lines() {
@@ -354,13 +363,15 @@ fn rust_step_has_no_division_and_no_unplanned_library_multiply() {
             .arg("--target-dir")
             .arg(&tdir));
         let rlib = tdir.join(triple).join("release/libqloop_verified.rlib");
+        // Once per target: the rlib holds every seed.
+        let listing = disassemble(&od, &rlib);
         for stem in spec_stems() {
             // `step` is inlined into `step_bits`, its only caller in the crate, so it has no
             // symbol of its own; `step_bits` adds only the inputs' saturation (compares).
             let step = format!("qloop_verified::{stem}::Controller::step");
-            let mut asm = functions(&od, &rlib, &step);
+            let mut asm = function_in(&listing, &step);
             if asm.is_empty() {
-                asm = functions(&od, &rlib, &format!("{step}_bits"));
+                asm = function_in(&listing, &format!("{step}_bits"));
             }
             assert!(
                 !asm.is_empty(),

@@ -42,6 +42,18 @@ pub fn decimal_cmp(s: &str, v: f64) -> Option<Ordering> {
         return None;
     }
     let a = Decimal::parse(s)?;
+    // Almost always decided without the exact digits: Rust's parse is correctly rounded, so
+    // if `s` rounds to an f64 `w` other than `v`, then `s` is on `w`'s side of `v` (it is
+    // within half an ulp of `w`, and `v` is at least a whole ulp away). Only `w == v` (or a
+    // parse that fails) needs the digits.
+    if let Ok(w) = s.parse::<f64>() {
+        if w < v {
+            return Some(Ordering::Less);
+        }
+        if w > v {
+            return Some(Ordering::Greater);
+        }
+    }
     let b = Decimal::parse(&format!("{v:.800e}"))?;
     Some(a.cmp(&b))
 }

@@ -126,7 +126,16 @@ impl Enc {
         }
     }
 
+    fn is_point(&self) -> bool {
+        self.lo == self.hi
+    }
+
     fn add(self, o: Enc) -> Enc {
+        // A table's expression at a grid point is mostly points (literals, the variable): one
+        // rational operation instead of two, or of four products in `mul`.
+        if self.is_point() && o.is_point() {
+            return Enc::point(self.lo + o.lo);
+        }
         Enc {
             lo: self.lo + o.lo,
             hi: self.hi + o.hi,
@@ -134,6 +143,9 @@ impl Enc {
     }
 
     fn mul(self, o: Enc) -> Enc {
+        if self.is_point() && o.is_point() {
+            return Enc::point(self.lo * o.lo);
+        }
         Enc::hull([
             &self.lo * &o.lo,
             &self.lo * &o.hi,
