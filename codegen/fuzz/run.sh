@@ -4,6 +4,7 @@
 # target's output printed when it ends.
 # Needs nightly and cargo-fuzz:  rustup toolchain install nightly && cargo install cargo-fuzz
 # Usage: bash codegen/fuzz/run.sh [SECONDS] [TARGET...]
+#        FUZZ_BUILD_ONLY=1 bash codegen/fuzz/run.sh    # the build alone (CI starts it early)
 set -euo pipefail
 cd "$(dirname "$0")"
 secs=${1:-60}
@@ -14,6 +15,7 @@ targets=("$@")
 flags=(-s none --debug-assertions)
 # One build of every target first, so that the runs below do not wait on each other's build.
 cargo +nightly fuzz build "${flags[@]}"
+[ -z "${FUZZ_BUILD_ONLY:-}" ] || exit 0
 
 fuzz_one() { # TARGET: seeds its corpus and fuzzes it for $secs
     local t=$1 corpus="corpus/$1"

@@ -348,6 +348,7 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
             );
         }
     }
+    o.push_str(&quantised_params(plan));
     o.push_str(&recips(plan));
     o.push_str(&tracks(plan));
     o.push_str(&tables(plan));
@@ -406,6 +407,42 @@ pub fn i64_is_costly(t: &Target) -> bool {
     t.word_bits < 64
         && (t.word_bits < 32
             || !matches!(t.multiplier.kind, MulKind::M32x32To64 | MulKind::M64x64To64))
+}
+
+/// The rule parameters `check` moved onto their port's grid (`ir::Quantised`), each with the
+/// value the spec wrote and the one the code and the rule's properties use.
+fn quantised_params(plan: &Plan) -> String {
+    let mut o = String::new();
+    for c in &plan.prog.constants {
+        let Some(q) = &c.quantised else { continue };
+        if o.is_empty() {
+            o.push_str(
+                "\nRule parameters on their port's grid (the rule's code and its properties use \
+                 the value on the right):\n",
+            );
+        }
+        let _ = writeln!(
+            o,
+            "  {} = {} is used as {}, the multiple of `{}`'s LSB 2^-{} at or below it",
+            c.name,
+            g(q.written),
+            exact_decimal(c.value, q.frac),
+            q.signal,
+            q.frac
+        );
+    }
+    o
+}
+
+/// The exact decimal of `v`, a multiple of `2^-frac`: `frac` digits after the point hold
+/// every digit of it (Rust prints the exact digits at a given precision).
+fn exact_decimal(v: f64, frac: i32) -> String {
+    let s = format!("{v:.prec$}", prec = frac.max(0) as usize);
+    if !s.contains('.') {
+        return s;
+    }
+    let s = s.trim_end_matches('0');
+    s.strip_suffix('.').unwrap_or(s).to_string()
 }
 
 /// A warning for each spec line whose values need 64-bit words on a target where they are

@@ -25,12 +25,29 @@ fn solvers_present() -> bool {
 
 /// The seed spec is proved from scratch, every obligation by both solvers.
 fn every_seed_spec_is_proved(stem: &str) {
+    proved(
+        stem,
+        &test_tools::workspace_root().join(format!("verified/specs/{stem}.qloop")),
+    );
+}
+
+/// Issue 35, item 3: qloop's safety rules with decimal parameters under round-to-nearest
+/// (`fixtures/decimal_rules.qloop`) are proved, every obligation by both solvers: no library
+/// rule is refuted by its own property (`rules.rs` checks the same properties on every raw
+/// command without a solver). Two seconds in a debug build.
+#[test]
+fn the_safety_rules_with_decimal_parameters_are_proved() {
+    let spec = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/decimal_rules.qloop");
+    proved("decimal_rules", &spec);
+}
+
+/// `spec` is proved from scratch, every obligation by both solvers.
+fn proved(stem: &str, spec: &std::path::Path) {
     if !solvers_present() {
         return;
     }
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("prove-seeds");
     std::fs::create_dir_all(&dir).expect("tmp dir");
-    let spec = test_tools::workspace_root().join(format!("verified/specs/{stem}.qloop"));
     let json = dir.join(format!("{stem}.proof.json"));
     let _ = std::fs::remove_file(&json);
     // --timeout bounds the whole proof: each takes seconds in a debug build, the

@@ -346,3 +346,112 @@ fn an_output_computed_before_a_rule_changes_its_source_is_refused() {
         assert!(err.contains(line_col), "{name}: want {line_col} in {err}");
     }
 }
+
+/// Issue 35, item 3: library rules with decimal parameters under round-to-nearest
+/// (`fixtures/decimal_rules.qloop`). Each parameter in the command's unit is moved down to a
+/// multiple of the command's LSB (computed here from the plan's format), the report says so,
+/// and on every raw command in range, with loads below, at and above each threshold and both
+/// hold states, the compiled step (the plan interpreter) meets every rule's property, each
+/// evaluated exactly (`prove::replay::property_holds`). With the parameters as written (the
+/// quantisation switched off), 68,410 of the cases broke `backoff`'s speed-up limit, 45,066
+/// `fmax`'s cap and 116,742 `idle_feed`'s air-cut feed: a sum or a stored constant rounded up.
+#[test]
+fn decimal_rule_parameters_are_moved_onto_the_commands_grid_and_every_property_holds() {
+    use qloop::ir::SigKind;
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/fixtures/decimal_rules.qloop"
+    );
+    let src = std::fs::read_to_string(path).unwrap();
+    let plan = qloop::compile_str(&src, &Target::default())
+        .unwrap_or_else(|d| panic!("{}", d.render(path, &src)));
+    let prog = &plan.prog;
+    let id = |n: &str| {
+        qloop::ir::SigId(
+            prog.signals
+                .iter()
+                .position(|s| s.name == n)
+                .unwrap_or_else(|| panic!("no signal {n}")),
+        )
+    };
+    let u = id("u");
+    let frac = plan.format(u).frac;
+    let lsb = 2f64.powi(-frac);
+    // Written value → the multiple of the LSB at or below it, by counting LSBs.
+    for (name, written) in [
+        ("IDLE_FEED_FIDL", 0.3),
+        ("BACKOFF_UP", 0.05),
+        ("FMAX_LIMIT", 4.1),
+    ] {
+        let c = prog.constants.iter().find(|c| c.name == name).unwrap();
+        let k = (written / lsb) as i64; // truncation = floor for positive values
+        assert_eq!(c.value, k as f64 * lsb, "{name}");
+        assert!(c.value <= written && written - c.value < lsb, "{name}");
+        let q = c.quantised.as_ref().expect("quantised");
+        assert_eq!((q.written, q.signal.as_str(), q.frac), (written, "u", frac));
+    }
+    // Parameters not in a written port's unit stay as written: the load thresholds, fmin's
+    // LIMIT (fmin compares the command, it does not write it), and backoff's FLOOR (only its
+    // properties read it; moved down below the range's lowest value, it would let them
+    // assume a fall that saturation stops).
+    for name in [
+        "IDLE_FEED_POUT",
+        "BACKOFF_LOAD",
+        "FMIN_LIMIT",
+        "BACKOFF_FLOOR",
+    ] {
+        let c = prog.constants.iter().find(|c| c.name == name).unwrap();
+        assert!(c.quantised.is_none(), "{name}");
+    }
+    let report = qloop::report::check_report(&plan, "decimal_rules.qloop");
+    assert!(
+        report.contains(&format!(
+            "BACKOFF_UP = 0.05 is used as 0.0498046875, the multiple of `u`'s LSB 2^-{frac} at or below it"
+        )),
+        "{report}"
+    );
+
+    // Every raw command, loads around each threshold, both hold states.
+    let fc = id("fc");
+    let fq = plan.format(fc);
+    let raw = |v: f64| (v * 2f64.powi(fq.frac)).round() as i128;
+    let loads: Vec<i128> = [0.0, 0.1, 2.0, 5.0]
+        .iter()
+        .flat_map(|&t| [raw(t) - 1, raw(t), raw(t) + 1])
+        .filter(|r| (0..=raw(5.0)).contains(r))
+        .collect();
+    let (ulo, uhi) = plan.raw_bounds(u).unwrap();
+    let (held, fault) = (id("held"), id("fault_code"));
+    let (hlo, hhi) = plan.raw_bounds(held).unwrap();
+    let mut checked = 0;
+    for ur in ulo..=uhi {
+        for &f in &loads {
+            for h in [hlo, hhi] {
+                let mut pre = vec![0i128; prog.signals.len()];
+                for (i, s) in prog.signals.iter().enumerate() {
+                    if s.kind == SigKind::State {
+                        pre[i] = plan.raw_init(qloop::ir::SigId(i));
+                    }
+                }
+                pre[u.0] = ur;
+                pre[fc.0] = f;
+                pre[held.0] = h;
+                pre[fault.0] = plan.raw_init(fault);
+                let mut post = pre.clone();
+                qloop::interp::step_fixed(&plan, &mut post).unwrap();
+                for (k, p) in prog.properties.iter().enumerate() {
+                    assert_eq!(
+                        qloop::prove::replay::property_holds(&plan, k, &pre, &post, &[]),
+                        Some(true),
+                        "property {} fails at u = {}, fc = {}, held = {h}",
+                        p.name,
+                        ur as f64 * lsb,
+                        f as f64 * 2f64.powi(-fq.frac)
+                    );
+                    checked += 1;
+                }
+            }
+        }
+    }
+    assert!(checked > 100_000, "{checked} property evaluations");
+}

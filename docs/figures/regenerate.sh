@@ -15,22 +15,28 @@ fig() { # spec plant scenario name
   cp "$tmp/$4/summary.txt" "docs/figures/$4.txt"
   echo "docs/figures/$4.{svg,png,txt}"
 }
-fig acc_fixed_gain turning depth-steps fig5a-conventional-depth-steps
-fig koren_masory_1981 turning depth-steps fig5b-adaptive-depth-steps
-fig koren_masory_tuned turning depth-steps tuned-depth-steps
-fig koren_masory_1981 turning depth-ramp fig6-adaptive-depth-ramp
-fig koren_masory_1981 turning speed-drop fig7-adaptive-speed-drop
-fig acc_fixed_gain turning speed-drop fig7-conventional-speed-drop
-fig milling_acc milling depth-profile milling-adaptive-depth-profile
-fig grinding_pi grinding force-step grinding-pi-force-step
-fig grinding_pi grinding eta-varying grinding-pi-eta-varying
-fig grinding_adaptive_pzc grinding eta-varying grinding-apzc-eta-varying
-fig gac_surface_finish finishing tool-failure gac-tool-failure
-# The safe spec (issue 18: the tuned law with qloop's `feed_safety` rules) through the turning
-# plant's fault scenarios: the summaries say when the fault came and when the hold was set.
-for sc in adc-saturation stuck-sensor sensor-dropout tool-breakage noise-burst spindle-stall; do
-  fig koren_masory_safe turning "$sc" "safe-$sc"
-done
+# The runs are independent, and each runs on one core: as many at a time as there are cores.
+export tmp
+export -f fig
+{
+  echo acc_fixed_gain turning depth-steps fig5a-conventional-depth-steps
+  echo koren_masory_1981 turning depth-steps fig5b-adaptive-depth-steps
+  echo koren_masory_tuned turning depth-steps tuned-depth-steps
+  echo koren_masory_1981 turning depth-ramp fig6-adaptive-depth-ramp
+  echo koren_masory_1981 turning speed-drop fig7-adaptive-speed-drop
+  echo acc_fixed_gain turning speed-drop fig7-conventional-speed-drop
+  echo milling_acc milling depth-profile milling-adaptive-depth-profile
+  echo grinding_pi grinding force-step grinding-pi-force-step
+  echo grinding_pi grinding eta-varying grinding-pi-eta-varying
+  echo grinding_adaptive_pzc grinding eta-varying grinding-apzc-eta-varying
+  echo gac_surface_finish finishing tool-failure gac-tool-failure
+  # The safe spec (issue 18: the tuned law with qloop's `feed_safety` rules) through the
+  # turning plant's fault scenarios: the summaries say when the fault came and when the hold
+  # was set.
+  for sc in adc-saturation stuck-sensor sensor-dropout tool-breakage noise-burst spindle-stall; do
+    echo koren_masory_safe turning "$sc" "safe-$sc"
+  done
+} | xargs -P "$(nproc)" -L 1 bash -c 'set -euo pipefail; fig "$@"' fig
 # The paper's tuning against `qloop tune`'s (issue 18): the demo's comparison figure.
 ./target/release/qloop demo --out "$tmp/demo" >/dev/null
 for ext in svg png txt; do cp "$tmp/demo/paper-vs-tuned.$ext" "docs/figures/paper-vs-tuned-depth-steps.$ext"; done

@@ -280,6 +280,21 @@ pub struct Constant {
     pub reference: bool,
     /// `#[nominal]`: the nominal feed a dimensionless (override) output multiplies.
     pub nominal: bool,
+    /// A rule parameter in a written port's unit, moved down to a multiple of that signal's
+    /// LSB ([`crate::lang::rules::PortParam`]): what the spec wrote.
+    pub quantised: Option<Quantised>,
+}
+
+/// A rule parameter `check` moved onto its port's grid: `value` is `k·2^-frac`, the greatest
+/// multiple of the port signal's LSB at or below the value the spec wrote.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Quantised {
+    /// The value the spec wrote (or the rule's default).
+    pub written: f64,
+    /// The spec's signal bound to the port.
+    pub signal: String,
+    /// The signal's fraction bits: its LSB is `2^-frac`.
+    pub frac: i32,
 }
 
 /// Role of a signal.

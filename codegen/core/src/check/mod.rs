@@ -54,6 +54,7 @@ pub fn check(ast: &SpecAst) -> Result<Program> {
         generated,
         recip_sites: x.recips,
         rule_defaults: x.rule_defaults,
+        port_params: x.port_params,
         ..Checker::default()
     }
     .run(&x.ast)
@@ -95,6 +96,8 @@ struct Checker {
     const_value_spans: HashMap<String, Span>,
     /// Constants valued by a rule parameter's default: not tunable (their text is the rule's).
     rule_defaults: std::collections::HashSet<String>,
+    /// Rule parameters to quantise to their port's resolution.
+    port_params: Vec<crate::lang::rules::PortParam>,
 }
 
 impl Checker {
@@ -205,6 +208,7 @@ impl Checker {
                 .help("add the update law as `step { .. }`")
         })?;
         self.word = word.map_or(32, |w| w.0);
+        self.quantise_port_params();
         let body = self.block(&block.stmts)?;
         for (i, s) in self.signals.iter().enumerate() {
             if s.kind == SigKind::Output && !self.assigned.contains(&SigId(i)) {
@@ -449,8 +453,48 @@ impl Checker {
             docs: doc_lines(&c.attrs),
             reference,
             nominal,
+            quantised: None,
         });
         Ok(())
+    }
+
+    /// Moves each rule parameter in a written port's unit down to the multiple of the port
+    /// signal's LSB at or below it, before the step and the properties read it, so that the
+    /// rule's code stores it exactly and its properties are about the value the code uses
+    /// ([`crate::lang::rules::PortParam`]; the report prints each one moved). Down, because
+    /// the library's parameters in the command's unit are limits on it (FMAX, the rise per
+    /// period, the air-cut feed): the command never exceeds what the spec wrote. A parameter
+    /// whose signal has no format yet (a vector, a range that does not fit) is left as
+    /// written: the format's own error comes later.
+    fn quantise_port_params(&mut self) {
+        for pp in std::mem::take(&mut self.port_params) {
+            let Some(id) = self.lookup(&pp.signal) else {
+                continue;
+            };
+            let Ok(q) = crate::lower::choose_format(&self.signals[id.0], self.word) else {
+                continue;
+            };
+            let Some(&(v, span)) = self.consts.get(&pp.constant) else {
+                continue;
+            };
+            // Scaling by a power of two is exact in f64 (away from overflow and subnormals,
+            // which the checks below leave as written), and so is rounding to an integer.
+            let scaled = v * 2f64.powi(q.frac);
+            let k = scaled.floor();
+            let moved = k * 2f64.powi(-q.frac);
+            if k == scaled || !moved.is_finite() || moved * 2f64.powi(q.frac) != k {
+                continue;
+            }
+            self.consts.insert(pp.constant.clone(), (moved, span));
+            if let Some(c) = self.constants.iter_mut().find(|c| c.name == pp.constant) {
+                c.value = moved;
+                c.quantised = Some(crate::ir::Quantised {
+                    written: v,
+                    signal: pp.signal.clone(),
+                    frac: q.frac,
+                });
+            }
+        }
     }
 
     fn signal(&mut self, s: &SignalDecl) -> Result<()> {

@@ -82,6 +82,8 @@ pub struct Expanded {
     pub recips: Vec<RecipSite>,
     /// The constants valued by a rule parameter's default (see [`super::rules`]).
     pub rule_defaults: HashSet<String>,
+    /// The rule parameters `check` quantises to a port's resolution.
+    pub port_params: Vec<super::rules::PortParam>,
 }
 
 /// One `newton_recip(d, [LO, HI], K)` of the step.
@@ -161,6 +163,7 @@ pub fn expand(ast: &SpecAst) -> Result<Expanded> {
         let_elems: x.let_elems,
         recips: x.recips,
         rule_defaults: inst.defaults,
+        port_params: inst.port_params,
     })
 }
 

@@ -64,6 +64,24 @@ pub struct Instantiated {
     /// The constants made from a rule parameter's default (not from an `apply` argument):
     /// their value's text is the rule's, so `qloop tune` may not rewrite it.
     pub defaults: HashSet<String>,
+    /// The parameters in the unit of a port the rule writes that its code reads, which
+    /// `check` quantises to that signal's resolution.
+    pub port_params: Vec<PortParam>,
+}
+
+/// A rule parameter written in the unit of a port the rule writes, and read by the rule's code
+/// (`UP "@cmd"` of `backoff`, which assigns `cmd = min(cmd, before + UP)`): the code adds or
+/// stores it into that signal, and the properties compare the signal with it. (A parameter only
+/// the properties read, such as `backoff`'s `FLOOR`, stays as written: nothing rounds it.) `check` moves it down to a multiple of the signal's
+/// LSB, so that the code stores it exactly and the properties speak of the value the code uses
+/// (`0.05` on a signal with LSB 2^-12 would otherwise be added and rounded to nearest, and
+/// `next(cmd) <= cmd + UP` refuted by a fraction of an LSB).
+#[derive(Clone, Debug)]
+pub struct PortParam {
+    /// The constant's name (`BACKOFF_UP`).
+    pub constant: String,
+    /// The spec's signal bound to the port.
+    pub signal: String,
 }
 
 /// Expands every `apply` of `ast` and drops its `rule` and `use` items.
@@ -143,6 +161,7 @@ pub fn instantiate(ast: &SpecAst) -> Result<Instantiated> {
     let mut instances: HashMap<String, Span> = HashMap::new();
     let mut step_at = None;
     let mut defaults = HashSet::new();
+    let mut port_params = Vec::new();
     for item in &ast.items {
         match item {
             Item::Rule(_) | Item::Use { .. } => {}
@@ -172,6 +191,7 @@ pub fn instantiate(ast: &SpecAst) -> Result<Instantiated> {
                 let x = instance(rule, a, &units)?;
                 items.extend(x.items);
                 defaults.extend(x.defaults);
+                port_params.extend(x.port_params);
                 pre.extend(x.pre);
                 post.extend(x.post);
                 props.extend(x.props);
@@ -207,6 +227,7 @@ pub fn instantiate(ast: &SpecAst) -> Result<Instantiated> {
             items,
         },
         defaults,
+        port_params,
     })
 }
 
@@ -370,6 +391,7 @@ fn terminated(s: syn::Stmt) -> syn::Stmt {
 struct Instance {
     items: Vec<Item>,
     defaults: Vec<String>,
+    port_params: Vec<PortParam>,
     pre: Vec<syn::Stmt>,
     post: Vec<syn::Stmt>,
     props: Vec<PropItem>,
@@ -836,9 +858,29 @@ fn instance(rule: &RuleDef, a: &ApplyDecl, units: &HashMap<String, String>) -> R
             },
         }
     }
+    // The parameters the rule's code (`pre`, `step`) reads, in the unit of a port it assigns.
+    let mut written = HashSet::new();
+    let mut read = Vec::new();
+    for st in pre.iter().chain(&post) {
+        writes(st, &mut written);
+        idents(&quote::ToTokens::to_token_stream(st), &mut read);
+    }
+    let read: HashSet<String> = read.iter().map(|i| i.to_string()).collect();
+    let port_params = rule
+        .params
+        .iter()
+        .filter_map(|p| {
+            let port = p.unit.as_ref()?.value().strip_prefix('@')?.to_string();
+            let signal = ports.get(&port)?.to_string();
+            let constant = prefixed(&inst, &p.name.to_string());
+            (written.contains(&signal) && read.contains(&constant))
+                .then_some(PortParam { constant, signal })
+        })
+        .collect();
     Ok(Instance {
         items,
         defaults,
+        port_params,
         pre,
         post,
         props,

@@ -308,8 +308,9 @@ const NO_CTX: i32 = i32::MIN;
 /// Passes over the step that may refine the formats of unranged outputs.
 const UNRANGED_PASSES: usize = 4;
 
-/// Picks the storage format of a declared signal.
-fn choose_format(s: &Signal, word: u32) -> Result<QFormat> {
+/// Picks the storage format of a declared signal (`check` also quantises a rule parameter in
+/// its unit to it).
+pub(crate) fn choose_format(s: &Signal, word: u32) -> Result<QFormat> {
     let (lo, hi) = s.range.unwrap_or((0.0, 0.0));
     if let Some(p) = s.pin {
         if s.range.is_some() && !p.ty.holds(p.raw_floor(lo), p.raw_ceil(hi)) {
