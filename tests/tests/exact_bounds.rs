@@ -155,7 +155,8 @@ test_tools::spec_tests! {
         no_input, no_state,
         pinned_let_type, recip_method, s21_zero_const, threshold_ge, thresholds_all_ops,
         table_cancellation, table_dead_and_constant, table_on_grid, tiny_factor_chain,
-        tiny_period, tiny_range, truncated, u64_input, unbalanced, vanishing_addend, vector_33,
+        tiny_period, tiny_range, truncated, u64_input, unbalanced, underflow_exp,
+        underflow_literal, vanishing_addend, vector_33,
     ];
     // A minute in a debug build: 256 inputs and states, each swept over its candidates.
     acceptance: [vector_256];

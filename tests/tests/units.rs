@@ -66,6 +66,11 @@ const RIGHT: &[(&str, &str, &str)] = &[
     ("const D: powf(TAU, -1.0) \"1/s\"; output y \"1/s\";", "y = D * r;", ""),
     ("const FRN: convert(FR, \"N\") \"N\"; output y \"N\";", "y = FRN * r;", ""),
     ("const A: exp(-period / TAU); output y;", "y = A * r;", ""),
+    (
+        "output y \"mm/min\";",
+        "y = convert(u, \"mm/min\");",
+        "property c { ensure y <= convert(u, \"mm/min\") + 0.01; }",
+    ),
 ];
 
 /// Cases that must be refused: (extra declarations, body, prove, message fragment). One of
@@ -217,4 +222,44 @@ fn convert_scales_by_the_si_ratio() {
             y[0]
         );
     }
+}
+
+/// Issue 35: `convert` in a property (it was "unknown function convert"): the signal times the
+/// unit factor, the same 60 as `step`'s for mm/s to mm/min, and the property evaluates exactly
+/// on a step of the plan (true for the output within its rounding, false 1 mm/min below it).
+#[test]
+fn convert_in_a_property_is_the_steps_factor() {
+    use qloop::ir::{PCond, PExpr};
+    let prove = "property c { ensure y <= convert(u, \"mm/min\") + 0.01; } \
+                 property d { ensure y <= convert(u, \"mm/min\") - 1.0; }";
+    let src = spec("output y \"mm/min\";", "y = convert(u, \"mm/min\");", prove);
+    let plan = qloop::compile_str(&src, &Target::default())
+        .unwrap_or_else(|d| panic!("{}", d.render("units_case", &src)));
+    let p = &plan.prog.properties[0];
+    let PCond::Cmp(_, _, rhs) = &p.ensures[0] else {
+        panic!("{:?}", p.ensures)
+    };
+    let PExpr::Add(conv, _) = rhs else {
+        panic!("{rhs:?}")
+    };
+    assert!(
+        matches!(conv.as_ref(), PExpr::Mul(_, k) if matches!(k.as_ref(), PExpr::Const(v) if *v == 60.0)),
+        "{conv:?}"
+    );
+    let id = |n: &str| plan.prog.signals.iter().position(|s| s.name == n).unwrap();
+    let (u, y) = (id("u"), id("y"));
+    let uq = plan.format(qloop::ir::SigId(u));
+    let mut pre = vec![0i128; plan.prog.signals.len()];
+    for (i, s) in plan.prog.signals.iter().enumerate() {
+        if s.kind == qloop::ir::SigKind::State {
+            pre[i] = plan.raw_init(qloop::ir::SigId(i));
+        }
+    }
+    pre[u] = (3.7 * 2f64.powi(uq.frac)) as i128;
+    let mut post = pre.clone();
+    qloop::interp::step_fixed(&plan, &mut post).unwrap();
+    assert_ne!(post[y], 0);
+    let holds = |k| qloop::prove::replay::property_holds(&plan, k, &pre, &post, &[]);
+    assert_eq!(holds(0), Some(true));
+    assert_eq!(holds(1), Some(false));
 }

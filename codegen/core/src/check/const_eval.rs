@@ -7,7 +7,9 @@
 //! f64 semantics: `+ − × ÷` and `sqrt` are correctly rounded (IEEE 754); `exp`, `ln` and `powf`
 //! are Rust's (the platform libm, within an ulp or two). A result that is not finite (division
 //! by zero, `ln` of a non-positive number, `sqrt` of a negative one, overflow) is an error at
-//! the operator or call.
+//! the operator or call, and so is an underflow: a product, quotient or `exp`/`powf` of
+//! non-zero values below 2.2e-308 in magnitude (`exp(-800.0)`, `1e-200 * 1e-200`), which f64
+//! holds only as 0 or with lost digits. (A sum that cancels to 0 is exact, not an underflow.)
 
 use super::{lit_value, path_ident, Checker, DIVISION_HELP};
 use crate::diag::{Diag, Result};
@@ -26,6 +28,26 @@ fn finite(v: f64, span: Span) -> Result<f64> {
         )
         .label("overflows")
         .help("use smaller constants: scale the units, or write the product's value directly"))
+    }
+}
+
+/// The underflow error at `span`.
+pub(super) fn underflow(span: Span) -> Diag {
+    Diag::new(
+        span,
+        "this constant is below the f64 range (2.2e-308 in magnitude): it would be 0 or lose its digits",
+    )
+    .label("underflows")
+    .help("scale the units so that the constant is nearer 1, or write 0 if 0 is meant")
+}
+
+/// `v`, or the underflow error at `span` where `v` is below the normal f64 range although the
+/// operation's operands are not zero.
+fn normal(v: f64, operands_nonzero: bool, span: Span) -> Result<f64> {
+    if operands_nonzero && v.abs() < f64::MIN_POSITIVE {
+        Err(underflow(span))
+    } else {
+        Ok(v)
     }
 }
 
@@ -74,8 +96,9 @@ impl Checker {
                             .help("a constant expression uses numbers, names, + - * / and exp, ln, sqrt, powf, abs, min, max, clamp"))
                     }
                 };
-                // An overflow is reported at the operator that makes it.
-                finite(v, b.op.span())?
+                // An overflow or underflow is reported at the operator that makes it.
+                let scaling = matches!(b.op, BinOp::Mul(_) | BinOp::Div(_));
+                normal(finite(v, b.op.span())?, scaling && x != 0.0 && y != 0.0, b.op.span())?
             }
             SExpr::Call(c) => {
                 let f = path_ident(&c.func)
@@ -137,7 +160,8 @@ impl Checker {
             .map(|x| self.const_eval(x))
             .collect::<Result<_>>()?;
         let v = match f {
-            "exp" => a[0].exp(),
+            "exp" => normal(a[0].exp(), true, span)?,
+            "powf" if a[0] != 0.0 => normal(a[0].powf(a[1]), true, span)?,
             "ln" if a[0] <= 0.0 => {
                 return Err(Diag::new(span, format!("`ln` of {}: not positive", a[0]))
                     .label("no real logarithm"))

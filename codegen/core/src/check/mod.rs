@@ -1363,7 +1363,23 @@ fn lit_value(l: &Lit) -> Result<f64> {
     if !v.is_finite() {
         return Err(Diag::new(l.span(), "number out of range"));
     }
+    // A literal whose digits are not all zero but whose value f64 cannot hold: `1e-400`
+    // parses to 0 (and `1e-310` to a subnormal with fewer digits than written).
+    if v.abs() < f64::MIN_POSITIVE && l_digits_nonzero(l) {
+        return Err(const_eval::underflow(l.span()));
+    }
     Ok(v)
+}
+
+/// Whether a number literal has a non-zero digit (so that a value of 0 is an underflow).
+fn l_digits_nonzero(l: &Lit) -> bool {
+    let digits = match l {
+        Lit::Float(f) => f.base10_digits().to_string(),
+        Lit::Int(i) => i.base10_digits().to_string(),
+        _ => return false,
+    };
+    let mantissa = digits.split(['e', 'E']).next().unwrap_or("");
+    mantissa.bytes().any(|b| (b'1'..=b'9').contains(&b))
 }
 
 /// The attributes of a `param` or `const`: `#[reference]` and `#[nominal]` on a `param`.

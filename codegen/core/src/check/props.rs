@@ -234,12 +234,26 @@ impl Checker {
                             PExpr::Max(a, b)
                         }
                     }
+                    // `convert(x, "unit")`: `x` times the unit factor, the exact value of its
+                    // f64 (as every constant of a property is), the same factor `step` uses.
+                    "convert" => {
+                        want(2)?;
+                        let k = self.convert_factor(&args)?;
+                        let x = self.pexpr(args[0], ctx)?;
+                        match &x {
+                            PExpr::Const(v) => match exact_product(*v, k) {
+                                Some(p) => PExpr::Const(p),
+                                None => PExpr::Mul(bx(x), bx(PExpr::Const(k))),
+                            },
+                            _ => PExpr::Mul(bx(x), bx(PExpr::Const(k))),
+                        }
+                    }
                     other => {
                         return Err(Diag::new(
                             f.span(),
                             format!("unknown function `{other}` in a property"),
                         )
-                        .help("properties use `next(x)`, `abs(a)`, `min(a, b)`, `max(a, b)`"))
+                        .help("properties use `next(x)`, `abs(a)`, `min(a, b)`, `max(a, b)`, `convert(x, \"unit\")`"))
                     }
                 }
             }
