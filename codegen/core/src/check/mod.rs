@@ -477,12 +477,10 @@ impl Checker {
             let Some(&(v, span)) = self.consts.get(&pp.constant) else {
                 continue;
             };
-            // Scaling by a power of two is exact in f64 (away from overflow and subnormals,
-            // which the checks below leave as written), and so is rounding to an integer.
-            let scaled = v * 2f64.powi(q.frac);
-            let k = scaled.floor();
-            let moved = k * 2f64.powi(-q.frac);
-            if k == scaled || !moved.is_finite() || moved * 2f64.powi(q.frac) != k {
+            // The format's own floor and value: scaling by a power of two and rounding to an
+            // integer are exact in f64, and the raw value came from an f64.
+            let moved = q.value(q.raw_floor(v));
+            if moved == v || !moved.is_finite() {
                 continue;
             }
             self.consts.insert(pp.constant.clone(), (moved, span));
@@ -1365,14 +1363,14 @@ fn lit_value(l: &Lit) -> Result<f64> {
     }
     // A literal whose digits are not all zero but whose value f64 cannot hold: `1e-400`
     // parses to 0 (and `1e-310` to a subnormal with fewer digits than written).
-    if v.abs() < f64::MIN_POSITIVE && l_digits_nonzero(l) {
+    if v.abs() < f64::MIN_POSITIVE && has_nonzero_digit(l) {
         return Err(const_eval::underflow(l.span()));
     }
     Ok(v)
 }
 
 /// Whether a number literal has a non-zero digit (so that a value of 0 is an underflow).
-fn l_digits_nonzero(l: &Lit) -> bool {
+fn has_nonzero_digit(l: &Lit) -> bool {
     let digits = match l {
         Lit::Float(f) => f.base10_digits().to_string(),
         Lit::Int(i) => i.base10_digits().to_string(),

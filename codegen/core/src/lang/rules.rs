@@ -71,11 +71,12 @@ pub struct Instantiated {
 
 /// A rule parameter written in the unit of a port the rule writes, and read by the rule's code
 /// (`UP "@cmd"` of `backoff`, which assigns `cmd = min(cmd, before + UP)`): the code adds or
-/// stores it into that signal, and the properties compare the signal with it. (A parameter only
-/// the properties read, such as `backoff`'s `FLOOR`, stays as written: nothing rounds it.) `check` moves it down to a multiple of the signal's
-/// LSB, so that the code stores it exactly and the properties speak of the value the code uses
-/// (`0.05` on a signal with LSB 2^-12 would otherwise be added and rounded to nearest, and
-/// `next(cmd) <= cmd + UP` refuted by a fraction of an LSB).
+/// stores it into that signal, and the properties compare the signal with it. `check` moves it
+/// down to a multiple of the signal's LSB, so that the code stores it exactly and the
+/// properties speak of the value the code uses (`0.05` on a signal with LSB 2^-12 would
+/// otherwise be added and rounded to nearest, and `next(cmd) <= cmd + UP` refuted by a
+/// fraction of an LSB). A parameter only the properties read, such as `backoff`'s `FLOOR`,
+/// stays as written: nothing rounds it.
 #[derive(Clone, Debug)]
 pub struct PortParam {
     /// The constant's name (`BACKOFF_UP`).
