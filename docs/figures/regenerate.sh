@@ -43,7 +43,9 @@ for ext in svg png txt; do cp "$tmp/demo/paper-vs-tuned.$ext" "docs/figures/pape
 echo "docs/figures/paper-vs-tuned-depth-steps.{svg,png,txt}"
 # 003's multi-model controller (issue 17): three designs on one figure, from the paper test
 # that asserts the comparison (the specs are in tests/ until the full design's proof lands).
-QLOOP_FIGURES="$PWD/docs/figures" cargo test -q -p qloop-tests --test integration -- --exact paper_multimodel::figure >/dev/null
+# `--workspace`, as the default tier builds it: `-p qloop-tests` alone resolves other features
+# and rebuilds qloop-core, qloop and the test binary (70-120 s).
+QLOOP_FIGURES="$PWD/docs/figures" cargo test -q --workspace --test integration -- --exact paper_multimodel::figure >/dev/null
 echo "docs/figures/milling-multimodel-comparison.{svg,png,txt}"
 # RCB2 above the loops (issue 19, 001): a seeded run beside 001's Table 2, and the study of
 # confidence levels against the nominal optimiser over 100 seeded runs (001 Figs. 5 and 6).

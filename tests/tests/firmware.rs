@@ -59,8 +59,9 @@ fn avr_firmware_in_simavr_matches_the_host_build() {
     eprintln!("{}", pass.unwrap_or_default());
 }
 
-/// Three release builds of `qloop-verified` with LTO (host, thumbv6m, thumbv7em), every seed
-/// in each: the acceptance tier's.
+/// Three release builds of `qloop-verified` with LTO (host, thumbv6m, thumbv7em), each with
+/// the six seeds the script runs (not the multi-model controller: `default-features = false`):
+/// the acceptance tier's.
 #[test]
 #[ignore = "acceptance tier (README, Tests)"]
 fn cortex_m_firmware_in_qemu_matches_the_host_run() {

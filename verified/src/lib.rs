@@ -22,7 +22,9 @@
 //!   least-squares estimators on β-FROH discretisations, a model-following pole-placement law
 //!   per estimate (the Diophantine equation solved by Cramer's rule with a division-free
 //!   reciprocal), and a supervisor that switches to the best predictor after a residence
-//!   time of N_r = 2 periods.
+//!   time of N_r = 2 periods. Its modules are behind the default feature
+//!   `milling_multimodel`: firmware that does not run it builds without it
+//!   (`default-features = false`), in a fraction of the time.
 //!
 //! The `*_ref` modules are the f64 reference controllers compiled from the same specs.
 //!
@@ -53,9 +55,12 @@ seed!("specs/milling_acc.qloop");
 seed!("specs/grinding_pi.qloop");
 seed!("specs/grinding_adaptive_pzc.qloop");
 seed!("specs/gac_surface_finish.qloop");
+// The multi-model controller: with the default feature `milling_multimodel` (Cargo.toml).
+#[cfg(feature = "milling_multimodel")]
 qloop_macros::controller!("specs/milling_multimodel.qloop");
+#[cfg(feature = "milling_multimodel")]
 qloop_macros::controller!("specs/milling_multimodel.qloop", reference);
 // Its harness module is 27 MB of Rust: under Kani here, under `cargo test` in the acceptance
 // tier's `tests/multimodel_harnesses.rs`.
-#[cfg(kani)]
+#[cfg(all(kani, feature = "milling_multimodel"))]
 qloop_macros::controller!("specs/milling_multimodel.qloop", kani);
