@@ -357,6 +357,7 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
     let _ = writeln!(o);
     let _ = writeln!(o, "Working widths of step's values: {}", width_census(plan));
     o.push_str(&wide_values(plan));
+    o.push_str(&loose_bounds(plan));
     let _ = writeln!(
         o,
         "step: {} add/sub, {} shifts, {} multiplies, {} compare/select, {} divisions",
@@ -443,6 +444,141 @@ fn exact_decimal(v: f64, frac: i32) -> String {
     }
     let s = s.trim_end_matches('0');
     s.strip_suffix('.').unwrap_or(s).to_string()
+}
+
+/// Share of a state's or output's range above which `qloop check` warns of its one-step
+/// error bound (the README's guarantees table, "error bound").
+pub const BOUND_WARN: f64 = 0.01;
+
+/// A warning for each state or output whose one-step error bound exceeds [`BOUND_WARN`] of
+/// its range, naming where the bound grows: the first value the step computes for it (in the
+/// order the step computes them, a `let` where it has a name) whose own bound exceeds that
+/// share of its own range, with what to change there.
+fn loose_bounds(plan: &Plan) -> String {
+    use crate::ir::SigId;
+    use crate::lower::lir::ValId;
+    fn stores(stmts: &[LStmt], out: &mut Vec<(SigId, ValId)>) {
+        for s in stmts {
+            match s {
+                LStmt::Store(sig, v) => out.push((*sig, *v)),
+                LStmt::If(_, t, e) => {
+                    stores(t, out);
+                    stores(e, out);
+                }
+                LStmt::Def(_) => {}
+            }
+        }
+    }
+    let mut stored = Vec::new();
+    stores(&plan.body, &mut stored);
+    // A value's bound as a share of the physical width of its proved interval.
+    let share = |v: &crate::lower::lir::Val| -> Option<f64> {
+        let width = (v.hi - v.lo) as f64 * 2f64.powi(-v.frac);
+        (!v.boolean && width > 0.0).then(|| v.err / width)
+    };
+    let p = &plan.prog;
+    // One warning per vector and place where its bounds grow (an unrolled loop repeats it):
+    // (group, the origin's line) -> (the largest share, its element's text, how many elements).
+    let mut warnings: Vec<((String, usize), f64, String, usize)> = Vec::new();
+    for (i, s) in p.signals.iter().enumerate() {
+        if !matches!(s.kind, SigKind::State | SigKind::Output) {
+            continue;
+        }
+        let sm = &plan.summary[i];
+        let width = sm.range.1 - sm.range.0;
+        // Not where the bound is within one LSB of the signal's own format: that is the
+        // precision the spec pinned (a model index in `#[q(u8, 0)]` cannot be closer than 1).
+        if !(width > 0.0 && sm.err > BOUND_WARN * width && sm.err > sm.format.lsb()) {
+            continue;
+        }
+        // The values this signal's stores read, transitively.
+        let mut cone = std::collections::BTreeSet::new();
+        let mut todo: Vec<ValId> = stored
+            .iter()
+            .filter(|(sig, _)| sig.0 == i)
+            .map(|(_, v)| *v)
+            .collect();
+        while let Some(v) = todo.pop() {
+            if cone.insert(v) {
+                todo.extend(plan.val(v).op.operands());
+            }
+        }
+        let loose = |named: bool| {
+            cone.iter().copied().find(|id| {
+                let v = plan.val(*id);
+                (!named || v.name.is_some()) && share(v).is_some_and(|x| x > BOUND_WARN)
+            })
+        };
+        let Some(origin) = loose(true).or_else(|| loose(false)) else {
+            continue;
+        };
+        let v = plan.val(origin);
+        let newton = p
+            .recips
+            .iter()
+            .any(|r| r.span.start().line == v.line && v.line != 0);
+        // qloop's own `let`s (`qloop_recip1_r0`, ..) are named by what wrote them.
+        let what = match &v.name {
+            Some(n) if !n.starts_with("qloop_") => format!("`{n}`"),
+            _ if newton => "the `newton_recip`".to_string(),
+            _ => "a value".to_string(),
+        };
+        let at = if v.line == 0 {
+            String::new()
+        } else {
+            format!(" (line {})", v.line)
+        };
+        let fix = if newton {
+            "it is a `newton_recip`, whose bound adds each step's rounding: give its `let` more \
+             fraction bits (`#[q(..)]`), seed it closer to 1/d (a table), or narrow d's range"
+        } else {
+            "give the values it is computed from more fraction bits (`#[lsb(..)]` or \
+             `#[q(..)]`), or narrow their ranges (`#[range(..)]`)"
+        };
+        let unit = s
+            .unit
+            .as_deref()
+            .map(|u| format!(" {u}"))
+            .unwrap_or_default();
+        let text = format!(
+            "warning: `{}` may be off by up to {}{unit} after one step, {}% of its range [{}, {}]{unit} \
+             (above {} %); the bound first exceeds {} % of a value's range at {what}{at}, {} on a \
+             range {} wide: {fix}",
+            s.label(),
+            bound(sm.err),
+            crate::text::percent(100.0 * sm.err / width),
+            g(sm.range.0),
+            g(sm.range.1),
+            100.0 * BOUND_WARN,
+            100.0 * BOUND_WARN,
+            bound(v.err),
+            g((v.hi - v.lo) as f64 * 2f64.powi(-v.frac)),
+        );
+        let key = (
+            s.elem.as_ref().map_or(s.name.clone(), |e| e.group.clone()),
+            v.line,
+        );
+        let share = sm.err / width;
+        match warnings.iter_mut().find(|w| w.0 == key) {
+            Some(w) => {
+                w.3 += 1;
+                if share > w.1 {
+                    (w.1, w.2) = (share, text);
+                }
+            }
+            None => warnings.push((key, share, text, 1)),
+        }
+    }
+    let mut o = String::new();
+    for ((group, _), _, text, n) in warnings {
+        let more = if n > 1 {
+            format!(" (the worst of {n} elements of `{group}` whose bounds first exceed it there)")
+        } else {
+            String::new()
+        };
+        let _ = writeln!(o, "{text}{more}");
+    }
+    o
 }
 
 /// A warning for each spec line whose values need 64-bit words on a target where they are
@@ -624,6 +760,44 @@ mod tests {
             &crate::compile_str(&src, &Target::default()).unwrap(),
             "kn.qloop",
         )
+    }
+
+    /// A state computed from a `let` pinned to 4 fraction bits is off by up to an LSB of the
+    /// `let` (1/16 = 6.25 % of the state's range): `check` warns, with the bound of the table
+    /// and the `let` where it first exceeds 1 % of a range; with 24 fraction bits it does not.
+    #[test]
+    fn a_bound_above_one_percent_of_the_range_is_warned_with_where_it_grows() {
+        let spec = |q: &str| {
+            format!(
+                "controller loose {{\n period 0.1 \"s\";\n input x: [0.0, 1.0];\n                  state s: [0.0, 1.0] = 0.0;\n step {{\n #[q({q})]\n let c = x * 0.3;\n                  s = c;\n }}\n}}\n"
+            )
+        };
+        let plan = crate::compile_str(&spec("i16, 4"), &Target::default()).unwrap();
+        let r = check_report(&plan, "loose.qloop");
+        let s = plan
+            .prog
+            .signals
+            .iter()
+            .position(|s| s.name == "s")
+            .unwrap();
+        let err = plan.summary[s].err;
+        // 1/16 from the `let`'s floor, and the constant's quantisation on top.
+        assert!(err > 0.0625 && err < 0.0625 + 1e-6, "{r}");
+        let w = r
+            .lines()
+            .find(|l| l.starts_with("warning: `s` may be off by up to"))
+            .unwrap_or_else(|| panic!("{r}"));
+        assert!(
+            w.contains(&format!("up to {} after one step", bound(err))),
+            "{w}"
+        );
+        // The `let` statement starts at its attribute, line 6.
+        assert!(w.contains("at `c` (line 6)"), "{w}");
+        let r = check_report(
+            &crate::compile_str(&spec("i32, 24"), &Target::default()).unwrap(),
+            "loose.qloop",
+        );
+        assert!(!r.contains("may be off by"), "{r}");
     }
 
     /// A user's constant 6.25e-5 on a 16-bit input with LSB 1/32 is applied as 2^-14
