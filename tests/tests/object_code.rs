@@ -253,7 +253,8 @@ fn check_c(stem: &str, target: &str) {
     let Some(od) = t.toolchain.objdump.as_deref().and_then(tool) else {
         return;
     };
-    let c = std::fs::read_to_string(dir.join(format!("{stem}.c"))).unwrap();
+    // `warning_free` wrote the C under the controller's name.
+    let c = std::fs::read_to_string(dir.join(format!("{}.c", plan.prog.name))).unwrap();
     let step = format!("{stem}_step");
     let asm = functions(&od, &obj, &step);
     assert!(!asm.is_empty(), "{stem}/{target}: no {step} in the object");
