@@ -456,24 +456,42 @@ pub const BOUND_WARN: f64 = 0.01;
 /// share of its own range, with what to change there.
 fn loose_bounds(plan: &Plan) -> String {
     use crate::ir::SigId;
-    use crate::lower::lir::ValId;
-    fn stores(stmts: &[LStmt], out: &mut Vec<(SigId, ValId)>) {
+    use crate::lower::lir::{Val, ValId};
+    use std::collections::{BTreeMap, BTreeSet};
+    type Held = BTreeMap<SigId, BTreeSet<ValId>>;
+    type Reads = BTreeMap<ValId, BTreeSet<ValId>>;
+    /// In program order: what each signal holds (the values stored to it on some path), and
+    /// for each load what it reads (a store earlier in the step, if any).
+    fn walk(plan: &Plan, stmts: &[LStmt], held: &mut Held, reads: &mut Reads) {
         for s in stmts {
             match s {
-                LStmt::Store(sig, v) => out.push((*sig, *v)),
-                LStmt::If(_, t, e) => {
-                    stores(t, out);
-                    stores(e, out);
+                LStmt::Def(id) => {
+                    if let Op::Load(sig) = plan.val(*id).op {
+                        if let Some(vs) = held.get(&sig) {
+                            reads.insert(*id, vs.clone());
+                        }
+                    }
                 }
-                LStmt::Def(_) => {}
+                LStmt::Store(sig, v) => {
+                    held.insert(*sig, BTreeSet::from([*v]));
+                }
+                LStmt::If(_, t, e) => {
+                    let mut other = held.clone();
+                    walk(plan, t, held, reads);
+                    walk(plan, e, &mut other, reads);
+                    for (sig, vs) in other {
+                        held.entry(sig).or_default().extend(vs);
+                    }
+                }
             }
         }
     }
-    let mut stored = Vec::new();
-    stores(&plan.body, &mut stored);
-    // A value's bound as a share of the physical width of its proved interval.
-    let share = |v: &crate::lower::lir::Val| -> Option<f64> {
-        let width = (v.hi - v.lo) as f64 * 2f64.powi(-v.frac);
+    let (mut held, mut reads) = (Held::new(), Reads::new());
+    walk(plan, &plan.body, &mut held, &mut reads);
+    // The physical width of a value's proved interval, and its bound as a share of it.
+    let width_of = |v: &Val| (v.hi - v.lo) as f64 * 2f64.powi(-v.frac);
+    let share = |v: &Val| -> Option<f64> {
+        let width = width_of(v);
         (!v.boolean && width > 0.0).then(|| v.err / width)
     };
     let p = &plan.prog;
@@ -491,16 +509,14 @@ fn loose_bounds(plan: &Plan) -> String {
         if !(width > 0.0 && sm.err > BOUND_WARN * width && sm.err > sm.format.lsb()) {
             continue;
         }
-        // The values this signal's stores read, transitively.
-        let mut cone = std::collections::BTreeSet::new();
-        let mut todo: Vec<ValId> = stored
-            .iter()
-            .filter(|(sig, _)| sig.0 == i)
-            .map(|(_, v)| *v)
-            .collect();
+        // The values its post-step value is computed from, through loads of values stored
+        // earlier in the step.
+        let mut cone = BTreeSet::new();
+        let mut todo: Vec<ValId> = held.get(&SigId(i)).into_iter().flatten().copied().collect();
         while let Some(v) = todo.pop() {
             if cone.insert(v) {
                 todo.extend(plan.val(v).op.operands());
+                todo.extend(reads.get(&v).into_iter().flatten().copied());
             }
         }
         let loose = |named: bool| {
@@ -552,7 +568,7 @@ fn loose_bounds(plan: &Plan) -> String {
             100.0 * BOUND_WARN,
             100.0 * BOUND_WARN,
             bound(v.err),
-            g((v.hi - v.lo) as f64 * 2f64.powi(-v.frac)),
+            g(width_of(v)),
         );
         let key = (
             s.elem.as_ref().map_or(s.name.clone(), |e| e.group.clone()),
@@ -769,7 +785,9 @@ mod tests {
     fn a_bound_above_one_percent_of_the_range_is_warned_with_where_it_grows() {
         let spec = |q: &str| {
             format!(
-                "controller loose {{\n period 0.1 \"s\";\n input x: [0.0, 1.0];\n                  state s: [0.0, 1.0] = 0.0;\n step {{\n #[q({q})]\n let c = x * 0.3;\n                  s = c;\n }}\n}}\n"
+                "controller loose {{\n period 0.1 \"s\";\n input x: [0.0, 1.0];\n \
+                 state s: [0.0, 1.0] = 0.0;\n output y: [0.0, 1.0];\n step {{\n #[q({q})]\n \
+                 let c = x * 0.3;\n s = c;\n y = s;\n }}\n}}\n"
             )
         };
         let plan = crate::compile_str(&spec("i16, 4"), &Target::default()).unwrap();
@@ -791,8 +809,14 @@ mod tests {
             w.contains(&format!("up to {} after one step", bound(err))),
             "{w}"
         );
-        // The `let` statement starts at its attribute, line 6.
-        assert!(w.contains("at `c` (line 6)"), "{w}");
+        // The `let` statement starts at its attribute, line 7.
+        assert!(w.contains("at `c` (line 7)"), "{w}");
+        // `y` reads `s` after its store: the warning follows the load to `c`.
+        let w = r
+            .lines()
+            .find(|l| l.starts_with("warning: `y` may be off by up to"))
+            .unwrap_or_else(|| panic!("{r}"));
+        assert!(w.contains("at `c` (line 7)"), "{w}");
         let r = check_report(
             &crate::compile_str(&spec("i32, 24"), &Target::default()).unwrap(),
             "loose.qloop",
