@@ -2,8 +2,9 @@
 //! 000_b8cbacf29caa8fe2.txt eqs. 12-13 with K = 1): its generated contraction property is
 //! proved by both solvers on the generated code; the compiled tracker converges to 1/x as the
 //! geometric series of that property says; and the checker refuses a gain that does not
-//! contract, a range that does not hold 1/x, and an `x` that changes after the tracker read
-//! it, each at its place. (The same gain written out by hand is refuted by the prover:
+//! contract, a range that does not hold 1/x, an `x` assigned both before and after the
+//! tracker, and a branch condition its property cannot state, each at its place. A tracker
+//! that reads its `x` before the step assigns it, after, or inside an `if` is proved too. (The same gain written out by hand is refuted by the prover:
 //! tests/fixtures/refute/recip_tracker_gain_too_large.qloop.)
 
 use fixed::FixedI16;
@@ -112,10 +113,22 @@ fn refusals_name_the_place() {
             24,
         ),
         (
-            "step { recip_track(r, s, 0.25); s = km * 0.25; y = r; }",
-            "`s` is assigned after the tracker that reads it",
+            "step { s = km * 0.25; recip_track(r, s, 0.25); s = km * 0.5; y = r; }",
+            "`s` is assigned both before and after the tracker that reads it",
             7,
-            12,
+            27,
+        ),
+        (
+            "step { let big = km * 0.5; if big > 1.0 { recip_track(r, km, 0.25); } y = r; }",
+            "cannot state the condition of the `if` around it (line 7): `big` is a `let` inside `step`",
+            7,
+            47,
+        ),
+        (
+            "step { s = km * 0.25; if s > 1.0 { recip_track(r, km, 0.25); } y = r; }",
+            "(line 7): it reads `s` after the step has assigned it",
+            7,
+            40,
         ),
     ];
     for (step, msg, line, col) in cases {
@@ -123,4 +136,98 @@ fn refusals_name_the_place() {
         assert!(m.contains(msg), "{step}: got `{m}`");
         assert_eq!((l, c), (*line, *col), "{step}: {m}");
     }
+}
+
+/// A tracker of an estimate `theta` that the step updates (least-mean-squares on y = θ·u):
+/// `recip_track` before the update or after it, inside `branch` (an `if` header) if given.
+fn estimator(track_first: bool, branch: Option<&str>) -> String {
+    let update = "theta += 0.125 * u * (y - theta * u);".to_string();
+    let mut track = "recip_track(kinv, theta, 0.25);".to_string();
+    if let Some(b) = branch {
+        track = format!("{b} {{ {track} }}");
+    }
+    let (a, b) = if track_first {
+        (track, update)
+    } else {
+        (update, track)
+    };
+    format!(
+        "controller est {{
+    period 10 \"ms\";
+    word 16;
+    input u: [0.1, 1.0];
+    input y: [0.0, 4.0];
+    input on: [0.0, 1.0];
+    state theta: [0.5, 4.0] = 1.0;
+    state kinv: [0.25, 2.0] = 1.0;
+    output g;
+    step {{
+        {a}
+        {b}
+        g = kinv;
+    }}
+}}
+"
+    )
+}
+
+/// Proves `src` with both solvers (15 s a query) and returns the tracker property's row of
+/// the table.
+fn proved_tracker(src: &str) -> String {
+    let p = qloop::compile_str(src, &qloop::Target::default())
+        .unwrap_or_else(|d| panic!("{}\n{src}", d.message));
+    let r = qloop::prove::prove(&p, &qloop_tests::both_solvers(15_000), &mut |_| {});
+    let table = r.table(&p);
+    assert!(r.proved(), "{src}\n{table}");
+    table
+        .lines()
+        .find(|l| l.contains("recip_track_kinv"))
+        .unwrap_or_else(|| panic!("no row for the tracker's property:\n{table}"))
+        .to_string()
+}
+
+#[test]
+fn a_tracker_before_or_after_the_update_of_its_value_is_proved() {
+    // Before: it reads theta before the step, and its property says `theta`.
+    proved_tracker(&estimator(true, None));
+    // After: its property says `next(theta)`, proved over theta's range whatever the
+    // estimator's products computed (cvc5 timed out on the whole step's encodings).
+    let row = proved_tracker(&estimator(false, None));
+    assert!(row.contains("cut at the tracked value"), "{row}");
+}
+
+#[test]
+fn a_tracker_inside_an_if_assumes_its_branch() {
+    for branch in ["if on > 0.5", "if !(on > 0.5 && u < 0.5)"] {
+        let src = estimator(false, Some(branch));
+        let p = qloop::compile_str(&src, &qloop::Target::default()).expect("compiles");
+        let prop = p
+            .prog
+            .properties
+            .iter()
+            .find(|q| q.name == "recip_track_kinv")
+            .expect("the tracker's property");
+        assert_eq!(prop.assumes.len(), 1, "{branch}: {:?}", prop.assumes);
+        proved_tracker(&src);
+    }
+    // In `else`, the negation; a boolean `let` stands for its condition.
+    let src = estimator(false, Some("let off = on <= 0.5; if off { } else"));
+    proved_tracker(&src);
+    // Without its assumption the property is false (the branch not taken leaves kinv as it
+    // was, which contracts nothing): the prover refutes it.
+    let mut p = qloop::compile_str(
+        &estimator(false, Some("if on > 0.5")),
+        &qloop::Target::default(),
+    )
+    .expect("compiles");
+    for q in &mut p.prog.properties {
+        q.assumes.clear();
+    }
+    let r = qloop::prove::prove_filtered(
+        &p,
+        &qloop_tests::both_solvers(15_000),
+        Some("recip_track_kinv"),
+        &mut |_| {},
+    );
+    assert!(!r.proved(), "{}", r.table(&p));
 }

@@ -456,7 +456,8 @@ pub fn describe(plan: &Plan, ob: &Obligation, cex: &Cex) -> Vec<String> {
     if !matches!(ob.goal, Goal::Val { local: true, .. }) && named < step_vars {
         lines.push(
             "every other state at its initial value, every other input at 0 or the nearest \
-             value in its range (they do not bear on this obligation: its query leaves them out)"
+             value in its range (the query does not name them, or only through a value it \
+             cuts: these are the values the replay ran)"
                 .into(),
         );
     }

@@ -98,6 +98,9 @@ struct Checker {
     rule_defaults: std::collections::HashSet<String>,
     /// Rule parameters to quantise to their port's resolution.
     port_params: Vec<crate::lang::rules::PortParam>,
+    /// The `if`s around the statement being checked, outermost first (for a tracker's
+    /// property, which holds where its branch runs).
+    branches: Vec<track::Branch>,
 }
 
 impl Checker {
@@ -749,8 +752,17 @@ impl Checker {
                         .map(|id| (id, self.writes.get(&id).copied().unwrap_or(0)))
                         .collect();
                     let line = ident.span().start().line;
+                    let src = self.branch_source(&init.expr);
                     if let Some(top) = self.bools.last_mut() {
-                        top.insert(ident.to_string(), BoolLet { cond, reads, line });
+                        top.insert(
+                            ident.to_string(),
+                            BoolLet {
+                                cond,
+                                src,
+                                reads,
+                                line,
+                            },
+                        );
                     }
                     return Ok(());
                 }
@@ -870,22 +882,26 @@ impl Checker {
                 let cond = self.cond(&i.cond)?;
                 self.check_cond_units(&i.cond, &ParamUnits::new())?;
                 let before = self.assigned.clone();
-                let then = self.block(&i.then_branch.stmts)?;
+                let branch = self.branch(&i.cond);
+                self.branches.push(branch.clone());
+                let then = self.block(&i.then_branch.stmts);
+                self.branches.pop();
+                let then = then?;
                 let after_then = std::mem::replace(&mut self.assigned, before);
+                self.branches.push(branch.negated());
                 let els = match &i.else_branch {
-                    None => Vec::new(),
+                    None => Ok(Vec::new()),
                     Some((_, e)) => match &**e {
-                        SExpr::Block(b) => self.block(&b.block.stmts)?,
+                        SExpr::Block(b) => self.block(&b.block.stmts),
                         nested @ SExpr::If(_) => {
                             let mut v = Vec::new();
-                            self.expr_stmt(nested, true, &mut v)?;
-                            v
+                            self.expr_stmt(nested, true, &mut v).map(|()| v)
                         }
-                        other => {
-                            return Err(Diag::new(other.span(), "expected a block after `else`"))
-                        }
+                        other => Err(Diag::new(other.span(), "expected a block after `else`")),
                     },
                 };
+                self.branches.pop();
+                let els = els?;
                 self.assigned = after_then.intersection(&self.assigned).copied().collect();
                 out.push(Stmt::If { cond, then, els });
                 Ok(())
@@ -1169,6 +1185,8 @@ impl Checker {
 /// when it was written, and its line.
 struct BoolLet {
     cond: Cond,
+    /// The condition as written, for a tracker's property ([`Checker::branch_source`]).
+    src: SExpr,
     reads: Vec<(SigId, usize)>,
     line: usize,
 }

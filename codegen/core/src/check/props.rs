@@ -116,6 +116,19 @@ impl Checker {
         Ok((invariants, properties))
     }
 
+    /// `e` (a condition of `step`) as a property condition, where inputs and states stand for
+    /// their values before the step (see [`Checker::recip_track`]).
+    pub(super) fn step_condition(&self, e: &SExpr) -> Result<PCond> {
+        let params = HashMap::new();
+        self.pcond(
+            e,
+            &Ctx {
+                params: &params,
+                invariant: false,
+            },
+        )
+    }
+
     fn pcond(&self, e: &SExpr, ctx: &Ctx) -> Result<PCond> {
         match e {
             SExpr::Paren(p) => self.pcond(&p.expr, ctx),

@@ -17,18 +17,41 @@
 //! ```
 //!
 //! (`r'` the post-step value, `x` the value the update read: `next(x)` if the step assigns
-//! `x` before the tracker), with `ρ'` a binary fraction just above `ρ` (for the quantised
-//! gain) and `ε` eight LSBs of `r` times `x_max` (the rounding of the update). The prover
-//! discharges it on the generated code, saturation included; a wrong gain, a misdeclared
-//! range or a rounding larger than claimed is a counterexample.
+//! `x` before the tracker, `x` if it assigns it after or not at all), with `ρ'` a binary
+//! fraction just above `ρ` (for the quantised gain) and `ε` eight LSBs of `r` times `x_max`
+//! (the rounding of the update). Inside an `if` the property assumes the branch's condition
+//! (negated in `else`), which must then be one a property can state: inputs, and states the
+//! step has not assigned before the `if`. The prover discharges it on the generated code,
+//! saturation included; a wrong gain, a misdeclared range or a rounding larger than claimed is
+//! a counterexample.
 
 use super::{path_ident, Checker};
 use crate::diag::{Diag, Result};
-use crate::ir::{Expr, SigId, SigKind, Stmt, Track};
+use crate::ir::{Expr, PExpr, SigId, SigKind, Stmt, Track, When};
 use crate::lang::ast::PropItem;
 use crate::qformat::{IntTy, QFormat};
+use std::collections::BTreeSet;
 use syn::spanned::Spanned;
-use syn::Expr as SExpr;
+use syn::{BinOp, Expr as SExpr, UnOp};
+
+/// An `if` around the statement being checked: its condition as written (boolean `let`s
+/// replaced by what they name), which branch, and the states assigned before the `if`.
+#[derive(Clone)]
+pub(super) struct Branch {
+    cond: SExpr,
+    taken: bool,
+    written: BTreeSet<SigId>,
+}
+
+impl Branch {
+    /// The `else` of the same `if`.
+    pub(super) fn negated(self) -> Branch {
+        Branch {
+            taken: !self.taken,
+            ..self
+        }
+    }
+}
 
 /// A `recip_track` as the checker met it, before its property is made.
 pub(super) struct PendingTrack {
@@ -36,6 +59,8 @@ pub(super) struct PendingTrack {
     x: SigId,
     /// How many assignments `x` had had when the tracker read it.
     x_writes: usize,
+    /// The conditions of the branches it sits in, as its property assumes them.
+    assumes: Vec<SExpr>,
     gain: f64,
     rho: f64,
     span: proc_macro2::Span,
@@ -138,6 +163,7 @@ impl Checker {
             _ => {}
         }
         let x_writes = self.writes.get(&x).copied().unwrap_or(0);
+        let assumes = self.branch_assumes(span)?;
         // r ← r + G·(1 − x·r), built directly (a literal G takes r's unit here).
         let var = |id: SigId| Box::new(Expr::Var(id, span));
         let one = Box::new(Expr::Const {
@@ -160,11 +186,117 @@ impl Checker {
             r,
             x,
             x_writes,
+            assumes,
             gain,
             rho,
             span,
         });
         Ok(())
+    }
+
+    /// The `if` at the current point, for [`Checker::branches`].
+    pub(super) fn branch(&self, cond: &SExpr) -> Branch {
+        Branch {
+            cond: self.branch_source(cond),
+            taken: true,
+            written: self
+                .writes
+                .iter()
+                .filter(|(_, &n)| n > 0)
+                .map(|(&id, _)| id)
+                .collect(),
+        }
+    }
+
+    /// `e` with each boolean `let` it names replaced by its condition, in parentheses.
+    pub(super) fn branch_source(&self, e: &SExpr) -> SExpr {
+        match e {
+            SExpr::Paren(p) => {
+                let inner = self.branch_source(&p.expr);
+                syn::parse_quote_spanned!(p.span()=> (#inner))
+            }
+            SExpr::Unary(u) if matches!(u.op, UnOp::Not(_)) => {
+                let inner = self.branch_source(&u.expr);
+                syn::parse_quote_spanned!(u.span()=> !#inner)
+            }
+            SExpr::Binary(b) if matches!(b.op, BinOp::And(_) | BinOp::Or(_)) => {
+                let mut b = b.clone();
+                b.left = Box::new(self.branch_source(&b.left));
+                b.right = Box::new(self.branch_source(&b.right));
+                SExpr::Binary(b)
+            }
+            SExpr::Path(_) => {
+                let src = path_ident(e).and_then(|i| {
+                    let n = i.to_string();
+                    self.bools.iter().rev().find_map(|s| s.get(&n))
+                });
+                match src {
+                    Some(b) => {
+                        let src = &b.src;
+                        syn::parse_quote_spanned!(e.span()=> (#src))
+                    }
+                    None => e.clone(),
+                }
+            }
+            _ => e.clone(),
+        }
+    }
+
+    /// The conditions of the branches around a tracker at `span`, as its property's
+    /// assumptions; refused where a property cannot state one.
+    fn branch_assumes(&self, span: proc_macro2::Span) -> Result<Vec<SExpr>> {
+        const BRANCH_HELP: &str = "the tracker's property holds where its branch runs, so it \
+            assumes the branch's condition: test inputs, and states before the step assigns \
+            them, in that `if` (or move the tracker out of it)";
+        let mut out = Vec::new();
+        for b in &self.branches {
+            let pc = self.step_condition(&b.cond).map_err(|d| {
+                Diag::new(
+                    span,
+                    format!(
+                        "the tracker's property cannot state the condition of the `if` around it \
+                         (line {}): {}",
+                        b.cond.span().start().line,
+                        d.message
+                    ),
+                )
+                .help(BRANCH_HELP)
+            })?;
+            let mut read = Vec::new();
+            pc.walk(&mut |x| {
+                if let PExpr::Sig(id, w) = x {
+                    read.push((*id, *w));
+                }
+            });
+            for (id, w) in read {
+                let s = &self.signals[id.0];
+                let before = w == When::Pre && s.kind == SigKind::State && b.written.contains(&id);
+                if before || s.kind == SigKind::Output {
+                    return Err(Diag::new(
+                        span,
+                        format!(
+                            "the tracker's property cannot state the condition of the `if` around \
+                             it (line {}): it reads `{}` {}, a value the property cannot name",
+                            b.cond.span().start().line,
+                            s.label(),
+                            if before {
+                                "after the step has assigned it"
+                            } else {
+                                "during the step"
+                            }
+                        ),
+                    )
+                    .help(BRANCH_HELP));
+                }
+            }
+            let c = &b.cond;
+            out.push(if b.taken {
+                c.clone()
+            } else {
+                syn::parse_quote_spanned!(span=> !(#c))
+            });
+        }
+        Ok(out)
     }
 
     /// The trackers' properties and IR records, once the whole step is checked (an
@@ -174,12 +306,22 @@ impl Checker {
         let mut tracks = Vec::new();
         for t in std::mem::take(&mut self.pending_tracks) {
             let (r, x) = (&self.signals[t.r.0], &self.signals[t.x.0]);
-            if self.writes.get(&t.x).copied().unwrap_or(0) != t.x_writes {
+            // Read before any assignment, `x` is the pre-step value; read after the last,
+            // `next(x)`. In between, the property could name neither.
+            let writes = self.writes.get(&t.x).copied().unwrap_or(0);
+            if t.x_writes > 0 && writes != t.x_writes {
                 return Err(Diag::new(
                     t.span,
-                    format!("`{}` is assigned after the tracker that reads it", x.label()),
+                    format!(
+                        "`{}` is assigned both before and after the tracker that reads it",
+                        x.label()
+                    ),
                 )
-                .help("assign it before `recip_track`, so that the tracker and its property read the same value"));
+                .help(
+                    "the tracker's property names `x` before the step or after it, and the \
+                     tracker would read neither: move `recip_track` before the first \
+                     assignment or after the last",
+                ));
             }
             let xh = x.range.map_or(0.0, |r| r.1);
             // ρ' = ρ + 2^-12 for the quantised gain, rounded up to 16 fraction bits.
@@ -215,7 +357,7 @@ impl Checker {
                 docs: vec![doc],
                 name: name.clone(),
                 foralls: Vec::new(),
-                assumes: Vec::new(),
+                assumes: t.assumes,
                 ensures: vec![syn::parse_quote_spanned!(t.span=>
                     abs(1.0 - #xv * next(#rn)) <= #rho_l * abs(1.0 - #xv * #rn) + #eps_l
                 )],

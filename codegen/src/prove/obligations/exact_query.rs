@@ -6,7 +6,7 @@
 use super::step::Step;
 use super::ParamGrid;
 use crate::ir::{PCond, SigId, SigKind};
-use crate::lower::lir::{Op, ValId};
+use crate::lower::lir::{LStmt, Op, ValId};
 use crate::lower::Plan;
 use crate::prove::exact::{self, PropTerms, B, T};
 use crate::prove::smt::signed_bits;
@@ -63,6 +63,12 @@ pub enum Cuts {
     /// `milling_multimodel.qloop`, 0.3 times a law coefficient that seven branches select,
     /// took z3 40 s per partial sum with the products cut). Bit-precise queries only.
     NonLinear,
+    /// The values the step stores into one signal: a reciprocal tracker that reads an
+    /// estimate the step has just updated (`recip_track(r, theta, G)` after `theta += ..`)
+    /// contracts for every `theta` in its range, whatever computed it, so its property is
+    /// proved over that range instead of through the estimator's products (cvc5 timed out on
+    /// every encoding of the whole step). Only the trackers' properties use it.
+    Stores(SigId),
 }
 
 impl Cuts {
@@ -78,8 +84,18 @@ impl Cuts {
                 v.op,
                 Op::Add(..) | Op::Sub(..) | Op::Neg(_) | Op::Shl(..) | Op::Shr(..) | Op::Cast(_)
             ),
+            Cuts::Stores(sig) => stores(&plan.body, sig, id),
         }
     }
+}
+
+/// Whether `stmts` store value `id` into `sig`.
+fn stores(stmts: &[LStmt], sig: SigId, id: ValId) -> bool {
+    stmts.iter().any(|s| match s {
+        LStmt::Store(s, v) => *s == sig && *v == id,
+        LStmt::If(_, a, b) => stores(a, sig, id) || stores(b, sig, id),
+        LStmt::Def(_) => false,
+    })
 }
 
 /// Linear integer arithmetic, products replaced by their linear envelopes: decided in

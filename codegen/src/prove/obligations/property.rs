@@ -11,6 +11,7 @@ use super::exact_query::{
 };
 use super::step::{deferred_query, Step, BIT_PRECISE, PRODUCTS_CUT};
 use super::{param_grids, ExactEncoding, Goal, Kind, Obligation};
+use crate::lower::lir::ValId;
 use crate::prove::exact::{PropTerms, B};
 use crate::prove::smt::{in_range, PropEnv};
 use crate::prove::solver::Query;
@@ -40,36 +41,62 @@ pub(super) fn portfolio(step: &Step, k: usize) -> Vec<Obligation> {
         (query, how.label)
     };
     let line = p.span.start().line;
+    // A tracker of a value the step assigns first: cut where that value is stored.
+    let tracked = plan
+        .prog
+        .tracks
+        .iter()
+        .find(|t| p.name == t.property)
+        .map(|t| Cuts::Stores(t.x))
+        .filter(|&c| (0..plan.vals.len()).any(|i| c.selects(plan, ValId(i))));
+    let at_tracked = tracked.into_iter().flat_map(|cuts| {
+        [
+            exact(ExactEncoding {
+                cuts,
+                label: "linear envelope, cut at the tracked value",
+                ..LINEAR
+            }),
+            exact(ExactEncoding {
+                cuts,
+                label: "exact integers, cut at the tracked value",
+                ..INTEGER
+            }),
+            (
+                direct_query(step, k, false, cuts),
+                "bit-precise, cut at the tracked value",
+            ),
+        ]
+    });
     // Cheapest first: each solver stops at its first proof.
-    [
-        exact(LINEAR),
-        exact(LINEAR_LETS),
-        exact(INTEGER),
-        exact(INTEGER_LETS),
-        (direct_query(step, k, false, Cuts::Products), PRODUCTS_CUT),
-        exact(EXACT_BV),
-        exact(ABSTRACT_BV),
-        (
-            if step.defer_whole {
-                Some(deferred_query())
-            } else {
-                direct_query(step, k, false, Cuts::None)
-            },
-            BIT_PRECISE,
-        ),
-    ]
-    .into_iter()
-    .filter_map(|(query, how)| {
-        Some(Obligation {
-            name: format!("property {}", p.name),
-            kind: Kind::Property,
-            query: query?,
-            goal: Goal::Property(k),
-            line,
-            encoding: Some(how),
+    at_tracked
+        .chain([
+            exact(LINEAR),
+            exact(LINEAR_LETS),
+            exact(INTEGER),
+            exact(INTEGER_LETS),
+            (direct_query(step, k, false, Cuts::Products), PRODUCTS_CUT),
+            exact(EXACT_BV),
+            exact(ABSTRACT_BV),
+            (
+                if step.defer_whole {
+                    Some(deferred_query())
+                } else {
+                    direct_query(step, k, false, Cuts::None)
+                },
+                BIT_PRECISE,
+            ),
+        ])
+        .filter_map(|(query, how)| {
+            Some(Obligation {
+                name: format!("property {}", p.name),
+                kind: Kind::Property,
+                query: query?,
+                goal: Goal::Property(k),
+                line,
+                encoding: Some(how),
+            })
         })
-    })
-    .collect()
+        .collect()
 }
 
 /// A bit-precise query whose models are states, inputs and parameters meeting the premises
