@@ -20,6 +20,9 @@ use proc_macro2::Span;
 /// multiplication with fewer adders and fraction bits.
 pub const CHAIN_SLACK: f64 = 0.01;
 
+/// The largest relative error with which a constant factor is applied: 2^-10 (about 0.1 %).
+pub const CONST_REL: f64 = 1.0 / 1024.0;
+
 /// How much finer than usual to quantise a constant (a folded chain of constants, see
 /// [`Lowerer::mul_const_chain`]): extra fraction bits, and the constant's own distance from
 /// the real product it stands for.
@@ -403,10 +406,14 @@ impl Lowerer<'_> {
 
 /// Quantises a non-zero constant factor `c` for a product with a value of `frac` fraction bits
 /// and magnitude up to `mx` as `m·2^-k` (`m` odd), fine enough that
-/// |c − m·2^-k|·mx ≤ ½ LSB of that value, with the fewest significant bits; `None` if that
-/// needs `|m| ≥ 2^62`.
+/// |c − m·2^-k|·mx ≤ ½ LSB of that value and |c − m·2^-k| ≤ [`CONST_REL`]·|c|, with the
+/// fewest significant bits; `None` if that needs `|m| ≥ 2^62`.
+///
+/// The second bound is for a small constant on a coarse value (a unit conversion `x * 0.001`
+/// of a power in W to 2^-5 W): half an LSB of `x` is in `x`'s unit, not the product's, and
+/// alone it let `0.001` become `33·2^-15`, 0.7 % high.
 fn quantise(c: f64, frac: i32, mx: f64) -> Option<(i128, i32)> {
-    let tol = pow2(-frac - 1);
+    let tol = pow2(-frac - 1).min(c.abs() * mx * CONST_REL);
     // c·2^-e ∈ [1, 2); from k = -e - 1 on, m = round(c·2^k) is at least 1.
     let e = c.abs().log2().floor() as i32;
     for kk in (-e - 1)..(-e + 62) {

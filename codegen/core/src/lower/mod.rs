@@ -18,6 +18,7 @@
 
 mod compare;
 mod const_mul;
+pub use const_mul::CONST_REL;
 pub mod dce;
 mod err_bound;
 pub mod lir;
