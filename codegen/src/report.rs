@@ -770,17 +770,6 @@ mod tests {
     use super::*;
     use crate::Target;
 
-    fn report(input_attr: &str) -> String {
-        let src = format!(
-            "controller kn {{\n period 0.1 \"s\";\n word 16;\n {input_attr} input n: [0.0, 1000.0];\n \
-             param KN: 6.25e-5;\n output y;\n step {{ y = n * KN; }}\n}}\n"
-        );
-        check_report(
-            &crate::compile_str(&src, &Target::default()).unwrap(),
-            "kn.qloop",
-        )
-    }
-
     /// A state computed from a `let` pinned to 4 fraction bits is off by up to an LSB of the
     /// `let` (1/16 = 6.25 % of the state's range): `check` warns, with the bound of the table
     /// and the `let` where it first exceeds 1 % of a range; with 24 fraction bits it does not.
