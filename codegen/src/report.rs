@@ -518,7 +518,16 @@ fn loose_bounds(plan: &Plan) -> String {
         let mut todo: Vec<ValId> = held.get(&SigId(i)).into_iter().flatten().copied().collect();
         while let Some(v) = todo.pop() {
             if cone.insert(v) {
-                todo.extend(plan.val(v).op.operands());
+                // A copy whose bound is below its operand's was bounded by an analysis of its
+                // own (a Newton iterate, `lower::newton`): its operands' bounds do not reach
+                // the signal through it.
+                let op = &plan.val(v).op;
+                if let Op::Cast(a) = op {
+                    if plan.val(v).err < plan.val(*a).err {
+                        continue;
+                    }
+                }
+                todo.extend(op.operands());
                 todo.extend(reads.get(&v).into_iter().flatten().copied());
             }
         }
@@ -535,11 +544,11 @@ fn loose_bounds(plan: &Plan) -> String {
         let newton = p
             .recips
             .iter()
-            .any(|r| r.span.start().line == v.line && v.line != 0);
+            .find(|r| r.span.start().line == v.line && v.line != 0);
         // qloop's own `let`s (`qloop_recip1_r0`, ..) are named by what wrote them.
         let what = match &v.name {
             Some(n) if !n.starts_with("qloop_") => format!("`{n}`"),
-            _ if newton => "the `newton_recip`".to_string(),
+            _ if newton.is_some() => "the `newton_recip`".to_string(),
             _ => "a value".to_string(),
         };
         let at = if v.line == 0 {
@@ -547,12 +556,31 @@ fn loose_bounds(plan: &Plan) -> String {
         } else {
             format!(" (line {})", v.line)
         };
-        let fix = if newton {
-            "it is a `newton_recip`, whose bound adds each step's rounding: give its `let` more \
-             fraction bits (`#[q(..)]`), seed it closer to 1/d (a table), or narrow d's range"
-        } else {
-            "give the values it is computed from more fraction bits (`#[lsb(..)]` or \
-             `#[q(..)]`), or narrow their ranges (`#[range(..)]`)"
+        // Of a `newton_recip`, what d's own bound becomes through 1/d: up to d_err/LO².
+        let d_part = newton.and_then(|r| {
+            let d = &p.sig(r.d).name;
+            let dv = plan
+                .vals
+                .iter()
+                .rev()
+                .find(|x| x.name.as_deref() == Some(d))?;
+            Some((dv.err, dv.err / (r.lo * r.lo), r.lo))
+        });
+        let fix = match d_part {
+            Some((d_err, through, lo)) if through >= 0.5 * v.err => format!(
+                "it is a `newton_recip`, and 1/d turns the bound {} of its d into up to {} \
+                 (d_err/LO², LO = {}): compute d more exactly, or raise LO",
+                bound(d_err),
+                bound(through),
+                g(lo)
+            ),
+            Some(_) => "it is a `newton_recip`, whose bound adds each step's rounding: give \
+                        its `let` more fraction bits (`#[q(..)]`), seed it closer to 1/d (a \
+                        table), or narrow d's range"
+                .to_string(),
+            None => "give the values it is computed from more fraction bits (`#[lsb(..)]` or \
+                     `#[q(..)]`), or narrow their ranges (`#[range(..)]`)"
+                .to_string(),
         };
         let unit = s
             .unit

@@ -151,7 +151,7 @@ fn printed_bounds_hold_on_the_claim_corpus(stem: &str) {
 test_tools::spec_tests! {
     printed_bounds_hold_on_the_claim_corpus in "tests/fixtures/claims";
     default: [
-        clamp_gap, division_method, flag_continuous, flag_not_binary, infinite_const, infinite_product, newton_recip_range_spans_zero,
+        clamp_gap, division_method, flag_continuous, flag_not_binary, infinite_const, infinite_product, newton_recip_range_spans_zero, newton_steps,
         no_input, no_state,
         pinned_let_type, recip_method, s21_zero_const, threshold_ge, thresholds_all_ops,
         table_cancellation, table_dead_and_constant, table_on_grid, tiny_factor_chain,

@@ -818,16 +818,11 @@ impl<'a> Lowerer<'a> {
                     }
                     self.vals[v.0].name = Some(sig.name.clone());
                     self.locals.insert(*target, v);
-                    // The result of a `newton_recip`: its error against real arithmetic from
-                    // Newton's contraction (`newton::result_err`), far below what interval
-                    // propagation through the iterates gives.
-                    if let Some(r) = self.prog.recips.iter().find(|r| r.r == *target) {
-                        let d = self.vals[self.locals[&r.d].0].err;
-                        if let Some(e) = newton::result_err(self.prog, &self.vals, r, d) {
-                            let own = &mut self.vals[v.0].err;
-                            *own = own.min(e);
-                        }
-                    }
+                    // An iterate or the result of a `newton_recip`: its error against real
+                    // arithmetic from Newton's contraction (`newton::iterate_err`,
+                    // `newton::result_err`), far below what interval propagation through
+                    // the iterates gives.
+                    self.newton_err(*target, v);
                     return Ok(());
                 }
                 let q = self.formats[target.0];
@@ -880,6 +875,43 @@ impl<'a> Lowerer<'a> {
     }
 
     /// Rounds, saturates and casts `v` into `target`'s storage, then writes it.
+    /// Tightens the error of `v`, bound to `target`, where `target` is an iterate (or the
+    /// result) of a `newton_recip`: to the bound from Newton's contraction where that is the
+    /// smaller ([`newton::iterate_err`], [`newton::result_err`]).
+    fn newton_err(&mut self, target: SigId, v: ValId) {
+        let name = &self.prog.sig(target).name;
+        for r in &self.prog.recips {
+            let Some(site) = self.prog.sig(r.d).name.strip_suffix("_d") else {
+                continue;
+            };
+            let step = if r.r == target {
+                Some(r.steps)
+            } else {
+                name.strip_prefix(site)
+                    .and_then(|t| t.strip_prefix("_r"))
+                    .and_then(|k| k.parse::<u32>().ok())
+                    .filter(|k| (1..=r.steps).contains(k))
+            };
+            let (Some(k), Some(d)) = (step, self.locals.get(&r.d)) else {
+                continue;
+            };
+            let d_err = self.vals[d.0].err;
+            let mut e = newton::iterate_err(self.prog, &self.vals, r, k, d_err);
+            if r.r == target {
+                let res = newton::result_err(self.prog, &self.vals, r, d_err);
+                e = match (e, res) {
+                    (Some(a), Some(b)) => Some(a.min(b)),
+                    (a, b) => a.or(b),
+                };
+            }
+            if let Some(e) = e {
+                let own = &mut self.vals[v.0].err;
+                *own = own.min(e);
+            }
+            return;
+        }
+    }
+
     fn store(&mut self, target: SigId, v: ValId, span: Span, out: &mut Vec<LStmt>) -> Result<()> {
         let x = self.v(v).clone();
         let Some(q) = self.formats[target.0] else {
