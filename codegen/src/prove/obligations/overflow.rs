@@ -284,7 +284,7 @@ pub(super) fn global_val_query(step: &Step, id: ValId) -> Query {
             &step.want,
         ),
         None => step.query_with_states(
-            &step.lemmas(&step.cone.val[id.0], Some(id)),
+            &step.lemmas(&step.cone.val(id), Some(id)),
             &goal,
             &step.want,
         ),
@@ -297,7 +297,7 @@ fn pre_state_load(step: &Step, id: ValId) -> Option<crate::ir::SigId> {
     let v = step.plan.val(id);
     let Op::Load(sig) = v.op else { return None };
     let (lo, hi) = step.plan.bounds(sig);
-    let alone = step.cone.val[id.0].len() == 1;
+    let alone = step.cone.alone(id);
     (alone && v.lo <= lo && hi <= v.hi).then_some(sig)
 }
 
