@@ -459,38 +459,10 @@ pub const BOUND_WARN: f64 = 0.01;
 /// share of its own range, with what to change there.
 fn loose_bounds(plan: &Plan) -> String {
     use crate::ir::SigId;
-    use crate::lower::lir::{Val, ValId};
-    use std::collections::{BTreeMap, BTreeSet};
-    type Held = BTreeMap<SigId, BTreeSet<ValId>>;
-    type Reads = BTreeMap<ValId, BTreeSet<ValId>>;
-    /// In program order: what each signal holds (the values stored to it on some path), and
-    /// for each load what it reads (a store earlier in the step, if any).
-    fn walk(plan: &Plan, stmts: &[LStmt], held: &mut Held, reads: &mut Reads) {
-        for s in stmts {
-            match s {
-                LStmt::Def(id) => {
-                    if let Op::Load(sig) = plan.val(*id).op {
-                        if let Some(vs) = held.get(&sig) {
-                            reads.insert(*id, vs.clone());
-                        }
-                    }
-                }
-                LStmt::Store(sig, v) => {
-                    held.insert(*sig, BTreeSet::from([*v]));
-                }
-                LStmt::If(_, t, e) => {
-                    let mut other = held.clone();
-                    walk(plan, t, held, reads);
-                    walk(plan, e, &mut other, reads);
-                    for (sig, vs) in other {
-                        held.entry(sig).or_default().extend(vs);
-                    }
-                }
-            }
-        }
-    }
-    let (mut held, mut reads) = (Held::new(), Reads::new());
-    walk(plan, &plan.body, &mut held, &mut reads);
+    use crate::lower::lir::Val;
+    // What each value is computed from, through loads of values stored earlier in the step
+    // (the branch tests are not where a bound grows).
+    let deps = crate::prove::obligations::cone::Cone::of(plan, false);
     // The physical width of a value's proved interval, and its bound as a share of it.
     let width_of = |v: &Val| (v.hi - v.lo) as f64 * 2f64.powi(-v.frac);
     let share = |v: &Val| -> Option<f64> {
@@ -512,25 +484,13 @@ fn loose_bounds(plan: &Plan) -> String {
         if !(width > 0.0 && sm.err > BOUND_WARN * width && sm.err > sm.format.lsb()) {
             continue;
         }
-        // The values its post-step value is computed from, through loads of values stored
-        // earlier in the step.
-        let mut cone = BTreeSet::new();
-        let mut todo: Vec<ValId> = held.get(&SigId(i)).into_iter().flatten().copied().collect();
-        while let Some(v) = todo.pop() {
-            if cone.insert(v) {
-                // A copy whose bound is below its operand's was bounded by an analysis of its
-                // own (a Newton iterate, `lower::newton`): its operands' bounds do not reach
-                // the signal through it.
-                let op = &plan.val(v).op;
-                if let Op::Cast(a) = op {
-                    if plan.val(v).err < plan.val(*a).err {
-                        continue;
-                    }
-                }
-                todo.extend(op.operands());
-                todo.extend(reads.get(&v).into_iter().flatten().copied());
-            }
-        }
+        // The values its post-step value is computed from. A copy whose bound is below its
+        // operand's was bounded by an analysis of its own (a Newton iterate, `lower::newton`):
+        // its operands' bounds do not reach the signal through it.
+        let cone = deps.closure_until(deps.post_roots(SigId(i)), |v| match plan.val(v).op {
+            Op::Cast(a) => plan.val(v).err >= plan.val(a).err,
+            _ => true,
+        });
         let loose = |named: bool| {
             cone.iter().copied().find(|id| {
                 let v = plan.val(*id);

@@ -176,9 +176,7 @@ fn estimator(track_first: bool, branch: Option<&str>) -> String {
 fn proved_tracker(src: &str) -> String {
     let p = qloop::compile_str(src, &qloop::Target::default())
         .unwrap_or_else(|d| panic!("{}\n{src}", d.message));
-    let r = qloop::prove::prove(&p, &qloop_tests::both_solvers(15_000), &mut |_| {});
-    let table = r.table(&p);
-    assert!(r.proved(), "{src}\n{table}");
+    let table = qloop_tests::assert_proved(&p, 15_000, &["recip_track_kinv"]).table(&p);
     table
         .lines()
         .find(|l| l.contains("recip_track_kinv"))

@@ -874,7 +874,6 @@ impl<'a> Lowerer<'a> {
         }
     }
 
-    /// Rounds, saturates and casts `v` into `target`'s storage, then writes it.
     /// Tightens the error of `v`, bound to `target`, where `target` is an iterate (or the
     /// result) of a `newton_recip`: to the bound from Newton's contraction where that is the
     /// smaller ([`newton::iterate_err`], [`newton::result_err`]).
@@ -884,13 +883,11 @@ impl<'a> Lowerer<'a> {
             let Some(site) = self.prog.sig(r.d).name.strip_suffix("_d") else {
                 continue;
             };
+            // The iterates are `{site}_r1` .. `{site}_rK` (`lang::expand`).
             let step = if r.r == target {
                 Some(r.steps)
             } else {
-                name.strip_prefix(site)
-                    .and_then(|t| t.strip_prefix("_r"))
-                    .and_then(|k| k.parse::<u32>().ok())
-                    .filter(|k| (1..=r.steps).contains(k))
+                (1..=r.steps).find(|k| *name == format!("{site}_r{k}"))
             };
             let (Some(k), Some(d)) = (step, self.locals.get(&r.d)) else {
                 continue;
@@ -912,6 +909,7 @@ impl<'a> Lowerer<'a> {
         }
     }
 
+    /// Rounds, saturates and casts `v` into `target`'s storage, then writes it.
     fn store(&mut self, target: SigId, v: ValId, span: Span, out: &mut Vec<LStmt>) -> Result<()> {
         let x = self.v(v).clone();
         let Some(q) = self.formats[target.0] else {

@@ -64,8 +64,8 @@ fn bound_over(p: &Program, vals: &[Val], r: &Recip) -> Option<f64> {
 
 /// The iterates of a `newton_recip` up to step `upto`, as lowered so far: `eps[k]` bounds
 /// `|1 − d·r_k|` (the module's `ε_k`, `eps[0]` the seed's), `delta[k − 1]` the rounding of
-/// step `k` alone, `mag[k]` and `err[0]` the magnitude of iterate `k` and the error of the
-/// seed (0 for a constant one).
+/// step `k` alone, `mag[k]` the magnitude of iterate `k`, and `err0` the error of the seed
+/// (0 for a constant one).
 struct Trace {
     eps: Vec<f64>,
     delta: Vec<f64>,
@@ -127,8 +127,9 @@ fn trace(p: &Program, vals: &[Val], r: &Recip, upto: u32) -> Option<Trace> {
 /// (both `d`s clamped to `[LO, HI]`, a clamp moves neither further apart). `E_k` is the
 /// real iteration's `|1 − d·r_k|` (the seed's error to the power `2^k`), `μ_k` bounds the
 /// real iterate (`1/LO`, since `1 − d·r_k ≥ 0` after a step; a constant seed itself, a table
-/// seed `(1 + E_0)/LO`) and `m_k` both iterates (`μ_k` and `r̂_k`'s interval). Near convergence the factor is far below 1, where
-/// interval propagation multiplies the error by about 3 per step.
+/// seed `(1 + E_0)/LO`) and `m_k` both iterates (`μ_k` and `r̂_k`'s interval). Near
+/// convergence the factor is far below 1, where interval propagation multiplies the error by
+/// about 3 per step.
 pub fn iterate_err(p: &Program, vals: &[Val], r: &Recip, k: u32, d_err: f64) -> Option<f64> {
     let t = trace(p, vals, r, k)?;
     let inv_lo = mul(1.0 / r.lo, 1.0 + 1e-15);

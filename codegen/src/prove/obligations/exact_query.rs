@@ -84,16 +84,16 @@ impl Cuts {
                 v.op,
                 Op::Add(..) | Op::Sub(..) | Op::Neg(_) | Op::Shl(..) | Op::Shr(..) | Op::Cast(_)
             ),
-            Cuts::Stores(sig) => stores(&plan.body, sig, id),
+            Cuts::Stores(sig) => stores(&plan.body, &|s, v| s == sig && v == id),
         }
     }
 }
 
-/// Whether `stmts` store value `id` into `sig`.
-fn stores(stmts: &[LStmt], sig: SigId, id: ValId) -> bool {
+/// Whether `stmts` store some value `v` into some signal `s` with `hit(s, v)`.
+pub(super) fn stores(stmts: &[LStmt], hit: &dyn Fn(SigId, ValId) -> bool) -> bool {
     stmts.iter().any(|s| match s {
-        LStmt::Store(s, v) => *s == sig && *v == id,
-        LStmt::If(_, a, b) => stores(a, sig, id) || stores(b, sig, id),
+        LStmt::Store(s, v) => hit(*s, *v),
+        LStmt::If(_, a, b) => stores(a, hit) || stores(b, hit),
         LStmt::Def(_) => false,
     })
 }

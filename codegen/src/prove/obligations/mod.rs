@@ -18,7 +18,7 @@
 //! intervals as lemmas (each guarded by the path condition of the branch that computes it):
 //! sound because each lemma is an obligation of its own, proved separately.
 
-mod cone;
+pub(crate) mod cone;
 mod exact_query;
 mod inductive;
 mod initial;

@@ -7,11 +7,11 @@
 //! all, since a property with unsatisfiable premises holds vacuously.
 
 use super::exact_query::{
-    exact_query, Cuts, Side, ABSTRACT_BV, EXACT_BV, INTEGER, INTEGER_LETS, LINEAR, LINEAR_LETS,
+    exact_query, stores, Cuts, Side, ABSTRACT_BV, EXACT_BV, INTEGER, INTEGER_LETS, LINEAR,
+    LINEAR_LETS,
 };
 use super::step::{deferred_query, Step, BIT_PRECISE, PRODUCTS_CUT};
 use super::{param_grids, ExactEncoding, Goal, Kind, Obligation};
-use crate::lower::lir::ValId;
 use crate::prove::exact::{PropTerms, B};
 use crate::prove::smt::{in_range, PropEnv};
 use crate::prove::solver::Query;
@@ -47,8 +47,8 @@ pub(super) fn portfolio(step: &Step, k: usize) -> Vec<Obligation> {
         .tracks
         .iter()
         .find(|t| p.name == t.property)
-        .map(|t| Cuts::Stores(t.x))
-        .filter(|&c| (0..plan.vals.len()).any(|i| c.selects(plan, ValId(i))));
+        .filter(|t| stores(&plan.body, &|s, _| s == t.x))
+        .map(|t| Cuts::Stores(t.x));
     let at_tracked = tracked.into_iter().flat_map(|cuts| {
         [
             exact(ExactEncoding {

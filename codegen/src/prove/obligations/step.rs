@@ -85,7 +85,7 @@ impl<'a> Step<'a> {
             lemma_text: Vec::new(),
             enc,
             paths: Paths::of(plan),
-            cone: Cone::of(plan),
+            cone: Cone::of(plan, true),
             want: step_vars(plan),
             defer_whole: false,
         };
