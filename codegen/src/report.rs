@@ -427,12 +427,13 @@ fn quantised_params(plan: &Plan) -> String {
         }
         let _ = writeln!(
             o,
-            "  {} = {} is used as {}, the multiple of `{}`'s LSB 2^-{} at or below it",
+            "  {} = {} is used as {}, the multiple of `{}`'s LSB 2^-{} at or {} it",
             c.name,
             g(q.written),
             exact_decimal(c.value, q.frac),
             q.signal,
-            q.frac
+            q.frac,
+            if q.up { "above" } else { "below" }
         );
     }
     o

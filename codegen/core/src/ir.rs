@@ -286,7 +286,8 @@ pub struct Constant {
 }
 
 /// A rule parameter `check` moved onto its port's grid: `value` is `k·2^-frac`, the greatest
-/// multiple of the port signal's LSB at or below the value the spec wrote.
+/// multiple of the port signal's LSB at or below the value the spec wrote, or the least at or
+/// above it where `up` ([`crate::lang::rules::PortParam`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Quantised {
     /// The value the spec wrote (or the rule's default).
@@ -295,6 +296,8 @@ pub struct Quantised {
     pub signal: String,
     /// The signal's fraction bits: its LSB is `2^-frac`.
     pub frac: i32,
+    /// Moved up (the code only subtracts it), not down.
+    pub up: bool,
 }
 
 /// Role of a signal.

@@ -98,6 +98,8 @@ struct Checker {
     rule_defaults: std::collections::HashSet<String>,
     /// Rule parameters to quantise to their port's resolution.
     port_params: Vec<crate::lang::rules::PortParam>,
+    /// The value expression of each of them, for its exact value.
+    port_exprs: HashMap<String, syn::Expr>,
     /// The `if`s around the statement being checked, outermost first (for a tracker's
     /// property, which holds where its branch runs).
     branches: Vec<track::Branch>,
@@ -427,6 +429,9 @@ impl Checker {
         self.const_units.insert(name.clone(), unit);
         self.consts.insert(name.clone(), (v, c.name.span()));
         self.const_value_spans.insert(name.clone(), c.value.span());
+        if self.port_params.iter().any(|p| p.constant == name) {
+            self.port_exprs.insert(name.clone(), c.value.clone());
+        }
         let (reference, nominal) = const_attrs(c)?;
         for (flag, mark, prev) in [
             (
@@ -461,15 +466,20 @@ impl Checker {
         Ok(())
     }
 
-    /// Moves each rule parameter in a written port's unit down to the multiple of the port
-    /// signal's LSB at or below it, before the step and the properties read it, so that the
-    /// rule's code stores it exactly and its properties are about the value the code uses
-    /// ([`crate::lang::rules::PortParam`]; the report prints each one moved). Down, because
-    /// the library's parameters in the command's unit are limits on it (FMAX, the rise per
-    /// period, the air-cut feed): the command never exceeds what the spec wrote. A parameter
-    /// whose signal has no format yet (a vector, a range that does not fit) is left as
-    /// written: the format's own error comes later.
+    /// Moves each rule parameter in a written port's unit onto a multiple of the port signal's
+    /// LSB, before the step and the properties read it, so that the rule's code uses it
+    /// exactly and its properties are about the value the code uses
+    /// ([`crate::lang::rules::PortParam`]; the report prints each one moved). Down (or up, for
+    /// one the code only subtracts), because the library's parameters in the command's unit
+    /// are limits on it (FMAX, the rise per period, the air-cut feed, the back-off per
+    /// period): the command never exceeds what the spec wrote. A parameter whose signal has
+    /// no format yet (a vector, a range that does not fit) is left as written: the format's
+    /// own error comes later.
     fn quantise_port_params(&mut self) {
+        // Each value's exact enclosure first, from the parameters as written (a rule constant
+        // `K * UP` is moved from `K · UP`, not from `UP` moved), or its f64 value where it has
+        // none; then the end on the side it moves to.
+        let mut moves = Vec::new();
         for pp in std::mem::take(&mut self.port_params) {
             let Some(id) = self.lookup(&pp.signal) else {
                 continue;
@@ -480,19 +490,32 @@ impl Checker {
             let Some(&(v, span)) = self.consts.get(&pp.constant) else {
                 continue;
             };
-            // The format's own floor and value: scaling by a power of two and rounding to an
-            // integer are exact in f64, and the raw value came from an f64.
-            let moved = q.value(q.raw_floor(v));
-            if moved == v || !moved.is_finite() {
+            let exact = self
+                .port_exprs
+                .get(&pp.constant)
+                .and_then(|e| self.enclose(e, None))
+                .unwrap_or_else(|| enclose::Enc::point(enclose::rat(v)));
+            // The format's own rounding and value, of the f64 at or beyond the exact end on
+            // that side: scaling by a power of two and rounding to an integer are exact in f64.
+            let raw = if pp.up {
+                q.raw_ceil(enclose::f64_up(&exact.hi))
+            } else {
+                q.raw_floor(enclose::f64_down(&exact.lo))
+            };
+            moves.push((pp, q, v, span, q.value(raw)));
+        }
+        for (pp, q, v, span, moved) in moves {
+            if !moved.is_finite() {
                 continue;
             }
             self.consts.insert(pp.constant.clone(), (moved, span));
             if let Some(c) = self.constants.iter_mut().find(|c| c.name == pp.constant) {
                 c.value = moved;
-                c.quantised = Some(crate::ir::Quantised {
+                c.quantised = (moved != v).then(|| crate::ir::Quantised {
                     written: v,
                     signal: pp.signal.clone(),
                     frac: q.frac,
+                    up: pp.up,
                 });
             }
         }

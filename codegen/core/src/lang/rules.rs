@@ -69,20 +69,25 @@ pub struct Instantiated {
     pub port_params: Vec<PortParam>,
 }
 
-/// A rule parameter written in the unit of a port the rule writes, and read by the rule's code
-/// (`UP "@cmd"` of `backoff`, which assigns `cmd = min(cmd, before + UP)`): the code adds or
-/// stores it into that signal, and the properties compare the signal with it. `check` moves it
-/// down to a multiple of the signal's LSB, so that the code stores it exactly and the
-/// properties speak of the value the code uses (`0.05` on a signal with LSB 2^-12 would
-/// otherwise be added and rounded to nearest, and `next(cmd) <= cmd + UP` refuted by a
-/// fraction of an LSB). A parameter only the properties read, such as `backoff`'s `FLOOR`,
-/// stays as written: nothing rounds it.
+/// A rule parameter or rule constant written in the unit of a port the rule writes, and read
+/// by the rule's code (`UP "@cmd"` of `backoff`, which assigns `cmd = min(cmd, before + UP)`):
+/// the code adds, subtracts or stores it into that signal, and the properties compare the
+/// signal with it. `check` moves it onto a multiple of the signal's LSB, so that the code uses
+/// it exactly and the properties speak of the value the code uses (`0.05` on a signal with LSB
+/// 2^-12 would otherwise be added and rounded to nearest, and `next(cmd) <= cmd + UP` refuted
+/// by a fraction of an LSB). It moves so that the signal comes out no higher than the spec
+/// wrote: down where the code adds or stores it, up where the code only subtracts it
+/// (`backoff`'s `DOWN = K · UP` in `before - DOWN`: more back-off, never less). A parameter
+/// only the properties read, such as `backoff`'s `FLOOR`, stays as written: nothing rounds it.
 #[derive(Clone, Debug)]
 pub struct PortParam {
     /// The constant's name (`BACKOFF_UP`).
     pub constant: String,
     /// The spec's signal bound to the port.
     pub signal: String,
+    /// Up to the multiple at or above the value (every read of it in the code is the
+    /// subtrahend of a `-`), else down to the one at or below it.
+    pub up: bool,
 }
 
 /// Expands every `apply` of `ast` and drops its `rule` and `use` items.
@@ -272,6 +277,40 @@ fn writes(st: &syn::Stmt, out: &mut HashSet<String>) {
         }
     }
     syn::visit::Visit::visit_stmt(&mut W(out), st);
+}
+
+/// Whether every read of the name `c` in `stmts` is the right operand of a binary `-`
+/// (`before - c`), so that a larger `c` gives a lower result ([`PortParam::up`]).
+fn only_subtracted<'a>(stmts: impl Iterator<Item = &'a syn::Stmt>, c: &str) -> bool {
+    struct S<'a> {
+        c: &'a str,
+        reads: usize,
+        subtracted: usize,
+    }
+    impl<'ast> syn::visit::Visit<'ast> for S<'_> {
+        fn visit_expr_binary(&mut self, e: &'ast syn::ExprBinary) {
+            if matches!(e.op, syn::BinOp::Sub(_))
+                && target_name(&e.right).as_deref() == Some(self.c)
+            {
+                self.subtracted += 1;
+            }
+            syn::visit::visit_expr_binary(self, e);
+        }
+        fn visit_ident(&mut self, i: &'ast proc_macro2::Ident) {
+            if i == self.c {
+                self.reads += 1;
+            }
+        }
+    }
+    let mut v = S {
+        c,
+        reads: 0,
+        subtracted: 0,
+    };
+    for st in stmts {
+        syn::visit::Visit::visit_stmt(&mut v, st);
+    }
+    v.reads > 0 && v.reads == v.subtracted
 }
 
 /// The plain name an assignment writes (`x` in `x = ..`), if it is one.
@@ -867,15 +906,32 @@ fn instance(rule: &RuleDef, a: &ApplyDecl, units: &HashMap<String, String>) -> R
         idents(&quote::ToTokens::to_token_stream(st), &mut read);
     }
     let read: HashSet<String> = read.iter().map(|i| i.to_string()).collect();
+    // The rule's parameters and its own constants, with the unit the rule wrote.
+    let own_consts: Vec<(proc_macro2::Ident, Option<syn::LitStr>)> =
+        parse_rule_body(rule.body.clone())?
+            .into_iter()
+            .filter_map(|it| match it {
+                RuleItem::Item(i) => match *i {
+                    Item::Constant(c) => Some((c.name, c.unit)),
+                    _ => None,
+                },
+                RuleItem::Pre(_) => None,
+            })
+            .collect();
     let port_params = rule
         .params
         .iter()
-        .filter_map(|p| {
-            let port = p.unit.as_ref()?.value().strip_prefix('@')?.to_string();
+        .map(|p| (&p.name, &p.unit))
+        .chain(own_consts.iter().map(|(n, u)| (n, u)))
+        .filter_map(|(name, unit)| {
+            let port = unit.as_ref()?.value().strip_prefix('@')?.to_string();
             let signal = ports.get(&port)?.to_string();
-            let constant = prefixed(&inst, &p.name.to_string());
-            (written.contains(&signal) && read.contains(&constant))
-                .then_some(PortParam { constant, signal })
+            let constant = prefixed(&inst, &name.to_string());
+            (written.contains(&signal) && read.contains(&constant)).then(|| PortParam {
+                up: only_subtracted(pre.iter().chain(&post), &constant),
+                constant,
+                signal,
+            })
         })
         .collect();
     Ok(Instance {
@@ -911,4 +967,32 @@ fn port_list(rule: &RuleDef) -> String {
             .collect::<Vec<_>>()
             .join(", ")
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::only_subtracted;
+
+    fn stmts(src: &str) -> Vec<syn::Stmt> {
+        syn::parse_str::<syn::Block>(src).unwrap().stmts
+    }
+
+    /// A port constant moves up only when every read of it is a subtrahend.
+    #[test]
+    fn a_constant_moves_up_only_where_the_code_only_subtracts_it() {
+        for (code, up) in [
+            ("{ cmd = min(cmd, before - D); }", true),
+            ("{ cmd = before - D; if x > 0.0 { cmd = cmd - D; } }", true),
+            ("{ cmd = min(cmd, before + D); }", false),
+            ("{ cmd = D; }", false),
+            // Read with both signs, or not as a plain subtrahend: down, as any limit.
+            ("{ cmd = before + D; cmd = cmd - D; }", false),
+            ("{ cmd = before - 2.0 * D; }", false),
+            ("{ cmd = D - before; }", false),
+            // Not read at all: nothing to move.
+            ("{ cmd = before; }", false),
+        ] {
+            assert_eq!(only_subtracted(stmts(code).iter(), "D"), up, "{code}");
+        }
+    }
 }
