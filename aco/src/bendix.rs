@@ -1,6 +1,6 @@
-//! The Bendix ACO system (002, Koren's survey, eqs. 1–3): a performance index of metal removal
+//! The Bendix ACO system (Koren's survey, eqs. 1–3): a performance index of metal removal
 //! rate against tool wear, maximised over milling feedrate and spindle speed under the
-//! system's constraints (002: "maximum and minimum spindle speed, maximum torque, maximum
+//! system's constraints (Koren's survey: "maximum and minimum spindle speed, maximum torque, maximum
 //! feed, maximum temperature, and maximum vibration amplitude").
 //!
 //! **The index, in a form correct in its units.** The extraction prints eq. 3 as
@@ -14,12 +14,12 @@
 //! tool C2. The denominator is therefore a cost per minute, and φ is volume per cost. With
 //! β = 1 it is the reciprocal of the cost per unit volume. With β = 0 it is
 //! `MRR/(1 + t1·TWR/W0)/C1`, the production rate including tool changes, divided by a
-//! constant. Those are the two limits 002 states for β. The extraction is ambiguous in where
+//! constant. Those are the two limits Koren's survey states for β. The extraction is ambiguous in where
 //! the fraction bar ends, and "MMR" is a typo for MRR (eq. 1).
 //!
-//! **The milling model** is ours, because 002 gives no numbers. It uses the survey's inch
+//! **The milling model** is ours, because Koren's survey gives no numbers. It uses the survey's inch
 //! units. MRR = w·a·V (eq. 1). Tooth load f_t = V/(z·N). Specific cutting energy
-//! u = U0·(f_t/F0)^−m, the size effect of 002 eq. 5's F = K_s·a·f^u with m = 1 − u. The
+//! u = U0·(f_t/F0)^−m, the size effect of F = K_s·a·f^u (Koren's survey, eq. 5) with m = 1 − u. The
 //! torque is then `T = u·MRR/(2π·N)`, which at a fixed cut depends on the tooth load only.
 //! Tool temperature is `θ = Θ0·(N/N0)^p·(f_t/F0)^q`. Vibration amplitude is taken as
 //! proportional to the cutting force (a forced response away from resonance), so its
@@ -37,7 +37,7 @@
 //!
 //! With q < p < 1 (here 0.2 < 0.5) the optimum is therefore the vertex of the torque limit (the
 //! tooth load) and the temperature limit, whatever β, unless the top speed or feed comes first.
-//! That is 002's strategy, to keep φ "at the highest possible value without causing any
+//! That is the survey's strategy, to keep φ "at the highest possible value without causing any
 //! constraint violations". With q > p it would be the temperature limit at top speed. Only where
 //! θ grows faster than N (p > 1) is there a speed inside the limits,
 //! `N* = [C1/(k·K2·Θ′·(p − 1))]^(1/p)`. There a larger β, which weighs the tool's cost, gives a
@@ -65,18 +65,18 @@ pub struct Economics {
     pub k3: f64,
 }
 
-/// Metal removal rate MRR = w·a·V (002 eq. 1): width (in) × depth (in) × feedrate (in/min),
+/// Metal removal rate MRR = w·a·V (Koren's survey, eq. 1): width (in) × depth (in) × feedrate (in/min),
 /// in in³/min.
 pub fn mrr(width: f64, depth: f64, feedrate: f64) -> f64 {
     width * depth * feedrate
 }
 
-/// Tool wear rate TWR = K1·MRR + K2·θ + K3·dT/dt (002 eq. 2), in in/min.
+/// Tool wear rate TWR = K1·MRR + K2·θ + K3·dT/dt (Koren's survey, eq. 2), in in/min.
 pub fn twr(e: &Economics, mrr: f64, temperature: f64, torque_rate: f64) -> f64 {
     e.k1 * mrr + e.k2 * temperature + e.k3 * torque_rate
 }
 
-/// The performance index φ = MRR/[C1 + (C1·t1 + C2·β)·TWR/W0] (002 eq. 3, read as the module
+/// The performance index φ = MRR/[C1 + (C1·t1 + C2·β)·TWR/W0] (Koren's survey, eq. 3, read as the module
 /// docs say), in in³/$.
 pub fn index(e: &Economics, mrr: f64, twr: f64, beta: f64) -> f64 {
     mrr / (e.c1 + (e.c1 * e.t1 + e.c2 * beta) * twr / e.w0)
@@ -172,7 +172,7 @@ impl Milling {
 
 /// An example shop: a 1 in, four-flute end mill taking a 0.5 in × 0.2 in cut in steel
 /// (1 hp·min/in³ at 0.005 in/tooth), with limits that let both the torque and the
-/// temperature bind (at about 0.0064 in/tooth and 2,200 rpm). The numbers are ours (002 gives
+/// temperature bind (at about 0.0064 in/tooth and 2,200 rpm). The numbers are ours (Koren's survey gives
 /// none).
 pub const EXAMPLE: Milling = Milling {
     width: 0.5,

@@ -1,4 +1,4 @@
-//! The outer layer sets the inner loop's set point (issue 19, item 6). RCB₂ (001 eq. 13)
+//! The outer layer sets the inner loop's set point (issue 19, item 6). RCB₂ (Ivester & Danai, eq. 13)
 //! chooses the force reference F_r for the next part. The generated Koren–Masory controller,
 //! with F_r as an input ([`SETPOINT_SPEC`]), holds it within the part on the turning plant.
 //! The part's cycle time is measured in that closed loop, not taken from the static model.
@@ -13,18 +13,18 @@
 //!   depth increase the force jumps with the depth before the loop can cut the feed, a
 //!   dynamic effect the static model does not have;
 //! - the surface roughness, Ra = f²/(32·r) with the largest feed per revolution over the
-//!   part (µm, limit 3.2, nose radius 0.8 mm), read by a gauge with ±10 % noise (001's noise
+//!   part (µm, limit 3.2, nose radius 0.8 mm), read by a gauge with ±10 % noise (Ivester & Danai's noise
 //!   model).
 //!
 //! The noise widths n_R of eq. 7 are each measurement's own: ±3σ of the force sensor (6σ,
 //! 0.06 kN at 10 N) and 0.2·m for the gauge.
 //!
 //! **The static model** for the nonlinear program: the steady feed where the force equals
-//! F_r, `f_i = (F_r/(K_s·a_i))^(1/u)` (002 eq. 5) in each section, with the nominal K_s. It
+//! F_r, `f_i = (F_r/(K_s·a_i))^(1/u)` (Koren's survey, eq. 5) in each section, with the nominal K_s. It
 //! gives the machining time Σ L_i/(f_i·n/60), a peak force of F_r (no overshoot) and the
 //! roughness of the shallowest section. The true plant's K_s is off by up to ±10 % (seeded).
 //! RCB₂'s buffers absorb both that bias and the overshoot, since the model is trusted only for
-//! the change it predicts (001 eq. 6).
+//! the change it predicts (Ivester & Danai, eq. 6).
 
 use crate::nlp::{self, NlpError};
 use crate::rcb::{buffers_with, noise_width};
@@ -101,7 +101,7 @@ impl Part {
 pub struct StaticModel {
     /// Specific cutting force K_s (kN/(mm·(mm/rev)^u)), nominal.
     pub ks: f64,
-    /// Force exponent u (002 eq. 5).
+    /// Force exponent u (Koren's survey, eq. 5).
     pub u: f64,
 }
 
@@ -286,7 +286,7 @@ fn cut(
 }
 
 /// The next F_r by RCB₂: the static model's fastest F_r with its predicted quality at most
-/// the current prediction plus the buffers (001 eqs. 5–6, 13).
+/// the current prediction plus the buffers (Ivester & Danai, eqs. 5–6, 13).
 pub fn next_fr(model: &StaticModel, part: &Part, fr: f64, b: [f64; 2]) -> Result<f64, NlpError> {
     let q0 = model.quality(part, fr);
     let diff = |g: &dyn Fn(f64) -> f64, x: &[f64]| {
@@ -322,7 +322,7 @@ pub fn run(
         let w = c.gauge_noise;
         let ra = c.part.roughness(cut.fmax) * rng.random_range(1.0 - w..=1.0 + w);
         let measured = [cut.peak, ra];
-        // n_R (001 eq. 7): the sensor's ±3σ band for the peak force, the gauge's ±10 % for
+        // n_R (Ivester & Danai, eq. 7): the sensor's ±3σ band for the peak force, the gauge's ±10 % for
         // the roughness.
         let n_r = [6.0 * c.sensor_noise_kn, noise_width(ra)];
         let buffers = buffers_with(c.confidence, measured, LIMITS, n_r);

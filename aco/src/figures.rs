@@ -21,13 +21,17 @@ fn paper(n: usize, col: impl Fn(&crate::paper::Row) -> f64) -> Vec<f64> {
         .collect()
 }
 
-/// One run against 001's Table 2: cycle time, power, roughness, v and f per cycle.
+/// One run against Ivester & Danai's Table 2: cycle time, power, roughness, v and f per cycle.
 pub fn run_figure(run: &Run) -> Figure {
     let n = run.cycles.len();
     let col = |g: &dyn Fn(&crate::rcb::Cycle) -> f64| run.cycles.iter().map(g).collect::<Vec<_>>();
     let mut time = vec![
         series("qloop RCB2 (true model)", col(&|c| c.time), Line::Fixed),
-        series("001 Table 2", paper(n, |r| r.time), Line::Reference),
+        series(
+            "Ivester & Danai, Table 2",
+            paper(n, |r| r.time),
+            Line::Reference,
+        ),
     ];
     if let Ok(o) = run.robust_optimum() {
         time.push(series(
@@ -41,13 +45,13 @@ pub fn run_figure(run: &Run) -> Figure {
         series: vec![
             series("measured", col(&|c| c.measured[i]), Line::Fixed),
             series("true (noise-free)", col(&|c| c.truth[i]), Line::Design(2)),
-            series("001 Table 2", paper(n, pick), Line::Reference),
+            series("Ivester & Danai, Table 2", paper(n, pick), Line::Reference),
             series("limit", vec![LIMITS[i]; n], Line::Setpoint),
         ],
     };
     Figure {
         title: format!(
-            "RCB2 on 001's turning model (reconstructed): {}, seed {}",
+            "RCB2 on Ivester & Danai's turning model (reconstructed): {}, seed {}",
             run.scenario.policy.name(),
             run.scenario.seed
         ),
@@ -64,22 +68,30 @@ pub fn run_figure(run: &Run) -> Figure {
                 title: "cutting speed v (m/min)".into(),
                 series: vec![
                     series("qloop", col(&|c| c.settings.v), Line::Fixed),
-                    series("001 Table 2", paper(n, |r| r.v), Line::Reference),
+                    series(
+                        "Ivester & Danai, Table 2",
+                        paper(n, |r| r.v),
+                        Line::Reference,
+                    ),
                 ],
             },
             Panel {
                 title: "feed f (mm/rev)".into(),
                 series: vec![
                     series("qloop", col(&|c| c.settings.f), Line::Fixed),
-                    series("001 Table 2", paper(n, |r| r.f), Line::Reference),
+                    series(
+                        "Ivester & Danai, Table 2",
+                        paper(n, |r| r.f),
+                        Line::Reference,
+                    ),
                 ],
             },
         ],
     }
 }
 
-/// Several policies over the same seeded runs: the median cycle time per cycle (001 Fig. 5)
-/// and the parts out of specification per cycle (001 Fig. 6's concern).
+/// Several policies over the same seeded runs: the median cycle time per cycle (Ivester & Danai, Fig. 5)
+/// and the parts out of specification per cycle (the concern of Ivester & Danai, Fig. 6).
 pub fn study_figure(studies: &[Study]) -> Figure {
     let n = studies.iter().map(|s| s.cycles).max().unwrap_or(0);
     let runs = studies.first().map_or(0, |s| s.runs.len());

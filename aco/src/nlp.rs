@@ -1,5 +1,5 @@
 //! The nonlinear program, solved by SLSQP (the `slsqp` crate, a pure-Rust translation of
-//! NLopt's SLSQP). 001 re-solves "by nonlinear programming" after every cycle, citing
+//! NLopt's SLSQP). Ivester & Danai re-solve "by nonlinear programming" after every cycle, citing
 //! Luenberger (its ref. 10); sequential quadratic programming is the textbook method for a smooth
 //! objective under smooth inequality constraints, which both of qloop's problems are.
 //!

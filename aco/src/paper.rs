@@ -1,9 +1,9 @@
-//! 001's Table 2, "Summary of RCB₂ test results": one run with c = 0.5 on both constraints,
+//! Ivester & Danai's Table 2, "Summary of RCB₂ test results": one run with c = 0.5 on both constraints,
 //! printed beside qloop's runs. The columns g_m1 and g_m2 are positive (3.85 and 1.87 at cycle
 //! 1, against constraint values −2.15 and −2.13 in the text), so they are read as the measured
 //! power (kW) and roughness (µm), with limits 6 and 4.
 
-/// One row of 001's Table 2.
+/// One row of Ivester & Danai's Table 2.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Row {
     /// Cycle.
@@ -31,7 +31,7 @@ const fn row(cycle: usize, v: f64, f: f64, power: f64, roughness: f64, time: f64
     }
 }
 
-/// 001, Table 2, as printed.
+/// Ivester & Danai, Table 2, as printed.
 pub const TABLE2: [Row; 10] = [
     row(1, 70.00, 0.100, 3.85, 1.87, 138.0),
     row(2, 88.64, 0.205, 5.28, 2.84, 108.8),

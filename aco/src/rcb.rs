@@ -1,15 +1,15 @@
-//! RCB₂, recursive constraint bounding (001, Ivester & Danai), on the turning model of
+//! RCB₂, recursive constraint bounding (Ivester & Danai), on the turning model of
 //! [`crate::turning`].
 //!
 //! After cycle j, the measured constraint values g_a(x(j)) and the noise width n_R give the
-//! buffers `b(j+1) = −c·[g_a(x(j)) + n_R]` (001 eq. 13), one per constraint with its own
+//! buffers `b(j+1) = −c·[g_a(x(j)) + n_R]` (Ivester & Danai, eq. 13), one per constraint with its own
 //! confidence level c ∈ [0, 1]. The next settings minimise the nominal model's cycle time
-//! subject to the modified constraints `g′_n(x) = g_n(x) − g_n(x(j)) − b(j+1) ≤ 0` (001 eqs.
+//! subject to the modified constraints `g′_n(x) = g_n(x) − g_n(x(j)) − b(j+1) ≤ 0` (Ivester & Danai, eqs.
 //! 5–6, i.e. the modelled change Δg_n ≤ b, eq. 14), solved by [`crate::nlp`].
 //!
-//! **Noise width.** 001's measurements carry multiplicative noise n ∈ [0.9, 1.1] (its
+//! **Noise width.** Ivester & Danai's measurements carry multiplicative noise n ∈ [0.9, 1.1] (its
 //! simulation section), and eq. 7 adds "the width of the noise distribution" n_R. Here
-//! n_R = 0.2·m for a measurement m ([`noise_width`]). This reproduces 001's first buffer,
+//! n_R = 0.2·m for a measurement m ([`noise_width`]). This reproduces Ivester & Danai's first buffer,
 //! b1 = 0.69 (0.5·(2.15 − 0.2·3.85)). The second printed buffer, 0.59, would need n_R = 0.95
 //! on a roughness of 1.87, which no ±10 % reading gives: the extraction does not say where it
 //! comes from, and eq. 13 with n_R = 0.2·1.87 gives 0.88.
@@ -58,26 +58,26 @@ impl Policy {
     }
 }
 
-/// One scenario of 001's simulation study.
+/// One scenario of Ivester & Danai's simulation study.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Scenario {
     /// The policy.
     pub policy: Policy,
     /// Number of parts (cycles).
     pub cycles: usize,
-    /// Model bias b: the true constants are drawn in k′·(1 ± b) (001: 0.1).
+    /// Model bias b: the true constants are drawn in k′·(1 ± b) (Ivester & Danai: 0.1).
     pub bias: f64,
     /// Noise half-width: each measurement is multiplied by a draw from [1 − w, 1 + w]
-    /// (001: 0.1).
+    /// (Ivester & Danai: 0.1).
     pub noise: f64,
     /// Seed of the bias and noise draws.
     pub seed: u64,
-    /// The first cycle's settings (001: [70, 0.1]).
+    /// The first cycle's settings (Ivester & Danai: [70, 0.1]).
     pub start: Settings,
 }
 
 impl Scenario {
-    /// 001's study: ten cycles from [70, 0.1], 10 % bias, noise in [0.9, 1.1].
+    /// Ivester & Danai's study: ten cycles from [70, 0.1], 10 % bias, noise in [0.9, 1.1].
     pub fn paper(policy: Policy, seed: u64) -> Scenario {
         Scenario {
             policy,
@@ -128,7 +128,7 @@ pub struct Run {
     pub cycles: Vec<Cycle>,
 }
 
-/// RCB₂'s buffers for the next cycle from this cycle's measurements (001 eqs. 7 and 13):
+/// RCB₂'s buffers for the next cycle from this cycle's measurements (Ivester & Danai, eqs. 7 and 13):
 /// `b = −c·[(m − limit) + 0.2·m]`, with the turning model's limits and
 /// [`noise_width`] for n_R.
 pub fn buffers(confidence: [f64; 2], measured: [f64; 2]) -> [f64; 2] {
@@ -136,9 +136,9 @@ pub fn buffers(confidence: [f64; 2], measured: [f64; 2]) -> [f64; 2] {
     buffers_with(confidence, measured, LIMITS, n_r)
 }
 
-/// n_R of eq. 7 for a measurement m under 001's ±10 % noise: 0.2·m. The noise spreads a
+/// n_R of eq. 7 for a measurement m under Ivester & Danai's ±10 % noise: 0.2·m. The noise spreads a
 /// reading over 0.2·y for a true value y, which is unknown, so the width is taken at the
-/// reading. This reproduces 001's b1 = 0.69. For a reading at the low end (m = 0.9·y) the
+/// reading. This reproduces Ivester & Danai's b1 = 0.69. For a reading at the low end (m = 0.9·y) the
 /// largest reading possible is 1.1·y = 1.222·m, so it understates that worst case by 2 % of m.
 pub fn noise_width(measured: f64) -> f64 {
     0.2 * measured
@@ -273,7 +273,7 @@ impl Run {
 mod tests {
     use super::*;
 
-    /// 001: c = 0.5 on the first cycle's constraint values gives b1 = 0.69 (the text).
+    /// Ivester & Danai: c = 0.5 on the first cycle's constraint values gives b1 = 0.69 (the text).
     #[test]
     fn first_buffer_matches_the_paper() {
         let b = buffers([0.5, 0.5], [3.85, 1.87]);

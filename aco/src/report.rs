@@ -6,13 +6,13 @@ use crate::study::{Study, CONVERGED};
 use crate::turning::LIMITS;
 use std::fmt::Write;
 
-/// One run as 001's Table 2, with the paper's rows beside it (where it has one).
+/// One run as Ivester & Danai's Table 2, with the paper's rows beside it (where it has one).
 pub fn run_table(run: &Run) -> String {
     let sc = &run.scenario;
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "RCB2 on the reconstructed turning model of 001: {}, seed {}, bias ±{:.0} %, noise [{}, {}]",
+        "RCB2 on the reconstructed turning model of Ivester & Danai: {}, seed {}, bias ±{:.0} %, noise [{}, {}]",
         sc.policy.name(),
         sc.seed,
         100.0 * sc.bias,
@@ -27,7 +27,7 @@ pub fn run_table(run: &Run) -> String {
     let _ = writeln!(
         s,
         "{:>5} | {:>7} {:>6} {:>6} {:>6} {:>7} {:>6} {:>6} | {:>7} {:>6} {:>5} {:>5} {:>6}",
-        "", "qloop", "", "P", "Ra", "t", "b1", "b2", "001", "Tab.2", "g_m1", "g_m2", "t"
+        "", "qloop", "", "P", "Ra", "t", "b1", "b2", "paper", "Tab.2", "g_m1", "g_m2", "t"
     );
     let _ = writeln!(
         s,
@@ -106,7 +106,7 @@ fn outcomes<'a>(
     }
 }
 
-/// One run as CSV, one line per cycle, with 001's Table 2 columns where it has the row.
+/// One run as CSV, one line per cycle, with Ivester & Danai's Table 2 columns where it has the row.
 pub fn run_csv(run: &Run) -> String {
     let mut s = String::from(
         "cycle,v_m_per_min,f_mm_per_rev,power_kw,roughness_um,power_true_kw,roughness_true_um,time_s,buffer_power,buffer_roughness,paper_v,paper_f,paper_g_m1,paper_g_m2,paper_time_s\n",
@@ -136,7 +136,7 @@ pub fn run_csv(run: &Run) -> String {
     s
 }
 
-/// The studies side by side: convergence against violations (001, Figs. 5 and 6).
+/// The studies side by side: convergence against violations (Ivester & Danai, Figs. 5 and 6).
 pub fn study_table(studies: &[Study]) -> String {
     let mut s = String::new();
     let (runs, cycles) = studies
@@ -223,13 +223,13 @@ pub fn study_csv(studies: &[Study]) -> String {
     s
 }
 
-/// The Bendix optimiser's answers for β = 0, 0.5 and 1 on a milling model (002 eqs. 1–3).
+/// The Bendix optimiser's answers for β = 0, 0.5 and 1 on a milling model (Koren's survey, eqs. 1–3).
 pub fn bendix_table(m: &crate::bendix::Milling, e: &crate::bendix::Economics) -> String {
     use crate::bendix::{mrr, optimise};
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "Bendix ACO (002 eqs. 1-3): phi = MRR / [C1 + (C1 t1 + C2 beta) TWR/W0], TWR = K1 MRR + K2 theta (steady torque)"
+        "Bendix ACO (Koren's survey, eqs. 1-3): phi = MRR / [C1 + (C1 t1 + C2 beta) TWR/W0], TWR = K1 MRR + K2 theta (steady torque)"
     );
     let _ = writeln!(
         s,

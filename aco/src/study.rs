@@ -1,4 +1,4 @@
-//! Seeded studies: one policy over many runs, as 001's Figs. 5 and 6 discuss (speed of
+//! Seeded studies: one policy over many runs, as Ivester & Danai's Figs. 5 and 6 discuss (speed of
 //! convergence against constraint violations).
 //!
 //! For each run (seed `first_seed + i`):

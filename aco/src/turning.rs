@@ -1,19 +1,19 @@
-//! The turning model of 001 (Ivester & Danai), **reconstructed**.
+//! The turning model of Ivester & Danai, **reconstructed**.
 //!
-//! The extraction of 001 lost the model (eqs. 16–20) and its constants k1…k10 (Table 1). What
+//! The extraction of Ivester & Danai lost the model (eqs. 16–20) and its constants k1…k10 (Table 1). What
 //! survives: the first cycle [v, f, d] = [70, 0.1, 2.54] (m/min, mm/rev, mm), its cycle time of
-//! 138 s and constraint values [−2.15, −2.13] (001's text), the buffers b = [0.69, 0.59] that
+//! 138 s and constraint values [−2.15, −2.13] (Ivester & Danai's text), the buffers b = [0.69, 0.59] that
 //! eq. 13 makes of them with c = 0.5, and Table 2 (ten cycles converging to about
 //! [99, 0.31] and 95.6 s, measured constraints ≈ 5 and ≈ 3.4). This module rebuilds a model from
 //! the standard turning relations that fits those numbers:
 //!
 //! - **Cycle time** (s): `t = k1 + t_m·(1 + k3/T)`, machining time `t_m = k2/(v·f)` and Taylor
 //!   tool life `v·T^k5 = k4` (T in min). `k3·t_m/T` is the tool-change time charged to one part
-//!   (Gilbert's form). 001's first study changed the tool after every part; with
+//!   (Gilbert's form). Ivester & Danai's first study changed the tool after every part; with
 //!   a per-part constant the tool life would not enter at all, so the fractional form is used,
 //!   with a tool life (5 min at 70 m/min) that keeps the term at a few seconds.
 //! - **Spindle power** (kW): `P = k6 + k7·d·f^k8·v/60 000`: no-load power plus the cutting
-//!   power of the force model F = K_s·d·f^u (002 eq. 5) at speed v. The power measured by a
+//!   power of the force model F = K_s·d·f^u (Koren's survey, eq. 5) at speed v. The power measured by a
 //!   spindle monitor includes the no-load share. Table 2 forces that share to be large: the
 //!   measured power grows only from 3.85 to about 5 kW while v·f grows fourfold.
 //! - **Surface roughness** (µm): `Ra = k9·f^k10·v^−1.52·d^0.25`. The kinematic roughness of a
@@ -28,17 +28,17 @@
 //! (3.355 of the first cycle's 3.85 kW) and the strong fall of roughness with speed. They are
 //! what Table 2's numbers require of a model of this form.
 //!
-//! The constraints are 001 eq. 2's `g(x) ≤ 0` with `g1 = P − 6 kW` and `g2 = Ra − 4 µm`. The
+//! The constraints are `g(x) ≤ 0` of Ivester & Danai, eq. 2, with `g1 = P − 6 kW` and `g2 = Ra − 4 µm`. The
 //! limits follow from the first cycle: measured 3.85 and 1.87 (Table 2, row 1) with slacks
 //! −2.15 and −2.13 (the text).
 //!
-//! Model bias (001, simulation section): each of k1…k10 is drawn from
+//! Model bias (Ivester & Danai, simulation section): each of k1…k10 is drawn from
 //! `[k'·(1 − 0.1), k'·(1 + 0.1)]` per run ([`Constants::biased`]). The two structural exponents
 //! (−1.52, 0.25) and the depth are not among the ten.
 
 use rand::Rng;
 
-/// Depth of cut (mm): fixed at 001's first-cycle value. Table 2 lists only v and f, so the
+/// Depth of cut (mm): fixed at Ivester & Danai's first-cycle value. Table 2 lists only v and f, so the
 /// depth is not optimised.
 pub const DEPTH_MM: f64 = 2.54;
 /// Speed exponent of the roughness law (structure, not biased).
@@ -59,14 +59,14 @@ pub struct Settings {
     pub f: f64,
 }
 
-/// 001's first cycle, "selected conservatively" (001, simulation section).
+/// Ivester & Danai's first cycle, "selected conservatively" (Ivester & Danai, simulation section).
 pub const FIRST_CYCLE: Settings = Settings { v: 70.0, f: 0.1 };
 
 /// The bounds of the settings the optimiser may choose: v in [30, 200] m/min, f in
-/// [0.05, 0.6] mm/rev (ours; 001's bounds are lost with Table 1).
+/// [0.05, 0.6] mm/rev (ours; Ivester & Danai's bounds are lost with Table 1).
 pub const BOUNDS: [(f64, f64); 2] = [(30.0, 200.0), (0.05, 0.6)];
 
-/// The ten model constants k1…k10 (001's Table 1 is lost; these are reconstructed, see the
+/// The ten model constants k1…k10 (Ivester & Danai's Table 1 is lost; these are reconstructed, see the
 /// module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Constants {
@@ -103,7 +103,7 @@ pub const NOMINAL: Constants = Constants {
 };
 
 impl Constants {
-    /// A biased copy: each k drawn uniformly from `[k·(1 − b), k·(1 + b)]` (001: b = 0.1).
+    /// A biased copy: each k drawn uniformly from `[k·(1 − b), k·(1 + b)]` (Ivester & Danai: b = 0.1).
     pub fn biased(&self, bias: f64, rng: &mut impl Rng) -> Constants {
         let mut k = self.k;
         for x in &mut k {
@@ -136,7 +136,7 @@ impl Constants {
         [(-tm + (1.0 / n - 1.0) * w) / s.v, -(tm + w) / s.f]
     }
 
-    /// Spindle power P = k6 + k7·d·f^k8·v/60 000 (kW).
+    /// Spindle power P = k6 + k7·d·f^k8·v/60 Koren & Masory (1981) (kW).
     pub fn power(&self, s: Settings) -> f64 {
         self.k[5] + self.cutting_power(s)
     }
@@ -155,7 +155,7 @@ impl Constants {
         [self.power(s), self.roughness(s)]
     }
 
-    /// 001 eq. 2's constraint values g = [P − 6, Ra − 4]: feasible where both are ≤ 0.
+    /// Ivester & Danai, eq. 2's constraint values g = [P − 6, Ra − 4]: feasible where both are ≤ 0.
     pub fn constraints(&self, s: Settings) -> [f64; 2] {
         let q = self.quality(s);
         [q[0] - LIMITS[0], q[1] - LIMITS[1]]
@@ -176,7 +176,7 @@ impl Constants {
 mod tests {
     use super::*;
 
-    /// 001's text: the first cycle [70, 0.1, 2.54] gives about 138 s and constraint values
+    /// Ivester & Danai's text: the first cycle [70, 0.1, 2.54] gives about 138 s and constraint values
     /// [−2.15, −2.13]; Table 2 row 1 prints 3.85 and 1.87.
     #[test]
     fn first_cycle_matches_the_paper() {

@@ -1,4 +1,4 @@
-//! The Bendix ACO index (002 eqs. 1–3) and its optimiser against hand-computed cases.
+//! The Bendix ACO index (Koren's survey, eqs. 1–3) and its optimiser against hand-computed cases.
 
 use qloop_aco::bendix::{
     index, mrr, optimise, twr, Economics, Milling, EXAMPLE, EXAMPLE_ECONOMICS,
@@ -27,7 +27,7 @@ fn index_by_hand() {
 }
 
 /// β = 0 is the production rate (volume per minute including tool changes) over C1; β = 1
-/// the volume per dollar (002's two limits).
+/// the volume per dollar (the survey's two limits).
 #[test]
 fn beta_limits_are_rate_and_cost() {
     let e = EXAMPLE_ECONOMICS;

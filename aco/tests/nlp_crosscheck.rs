@@ -9,7 +9,7 @@ use qloop_aco::turning::{
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-/// Where P = p and Ra = r (both active): P − k6 = k7·d·f^u·v/60 000 gives v = A·f^−u, and
+/// Where P = p and Ra = r (both active): P − k6 = k7·d·f^u·v/60 Koren & Masory (1981) gives v = A·f^−u, and
 /// then Ra = k9·f^a·v^e·d^0.25 (e = −1.52) gives f^(a + e·(−u)) = r/(k9·d^0.25·A^e).
 fn vertex(k: &Constants, p: f64, r: f64) -> Settings {
     let [_, _, _, _, _, p0, ks, u, kr, a] = k.k;

@@ -1,5 +1,5 @@
-//! 001's findings (Ivester & Danai), reproduced on the reconstructed turning model over 100
-//! seeded runs with 10 % model bias and noise in [0.9, 1.1] (001's simulation section).
+//! Ivester & Danai's findings (Ivester & Danai), reproduced on the reconstructed turning model over 100
+//! seeded runs with 10 % model bias and noise in [0.9, 1.1] (Ivester & Danai's simulation section).
 //!
 //! Each test prints what it measured (`cargo test -p qloop-aco --test integration paper_rcb2:: --
 //! --nocapture`); `qloop aco` prints the same study.
@@ -27,7 +27,7 @@ fn report(s: &Study) {
     );
 }
 
-/// 001: with c = 0.5 "the control variables move towards the optimal point from cycle to cycle
+/// Ivester & Danai: with c = 0.5 "the control variables move towards the optimal point from cycle to cycle
 /// without violating the constraints", and Table 2 reaches its final time at cycle 6. Over 100
 /// runs of ten cycles: no part out of specification; a median of at most six cycles before a
 /// cycle first comes within 5 % of the true model's noise-robust optimum; and a median gap of
@@ -62,7 +62,7 @@ fn time_falls_like_table_2() {
         let ours = median[j] / first;
         let paper = p.time / TABLE2[0].time;
         println!(
-            "cycle {:>2}: median {:.1} s ({ours:.3} of cycle 1), 001 {:.1} s ({paper:.3})",
+            "cycle {:>2}: median {:.1} s ({ours:.3} of cycle 1), Ivester & Danai {:.1} s ({paper:.3})",
             j + 1,
             median[j],
             p.time
@@ -75,7 +75,7 @@ fn time_falls_like_table_2() {
     }
 }
 
-/// 001, Figs. 5 and 6: a higher confidence level converges faster but risks violations; "the
+/// Ivester & Danai, Figs. 5 and 6: a higher confidence level converges faster but risks violations; "the
 /// differences in cycle times were practically insignificant after the first few cycles".
 /// Over the same 100 runs of 20 cycles: the median cycles to converge fall from c = 0.1 to 0.5
 /// to 0.9; c = 0.9 puts parts out of specification where c = 0.1 and 0.5 put none; the median

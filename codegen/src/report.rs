@@ -451,7 +451,7 @@ fn exact_decimal(v: f64, frac: i32) -> String {
 }
 
 /// Share of a state's or output's range above which `qloop check` warns of its one-step
-/// error bound (the README's guarantees table, "error bound").
+/// error bound (the book's "What the emitted code guarantees", docs/book/src/reference/guarantees.md).
 pub const BOUND_WARN: f64 = 0.01;
 
 /// A warning for each state or output whose one-step error bound exceeds [`BOUND_WARN`] of

@@ -447,7 +447,7 @@ fn bench_rejects_zero_steps() {
 /// grinding_pi 1132 vs 806 cycles, acc_fixed_gain 194 vs 182.)
 // Every seed in simavr twice (as planned and all-multiply): about 90 s.
 #[test]
-#[ignore = "acceptance tier (README, Tests)"]
+#[ignore = "acceptance tier (docs/book/src/internals/tests.md)"]
 fn cost_model_choices_are_never_slower_than_plain_multiply_on_atmega328p() {
     if !tools_present(&missing_avr_tools()) {
         return;

@@ -251,7 +251,7 @@ fn gen_writes_output_file_atomically() {
 
 // The whole demo in a debug build, its proofs uncached: about 45 s (.ci/run also runs it in release).
 #[test]
-#[ignore = "acceptance tier (README, Tests)"]
+#[ignore = "acceptance tier (docs/book/src/internals/tests.md)"]
 fn demo_writes_check_and_code() {
     let dir = std::env::temp_dir().join(format!("qloop-demo-{}", std::process::id()));
     let o = qloop(&["demo", "--out", dir.to_str().unwrap()]);

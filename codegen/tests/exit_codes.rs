@@ -1,5 +1,5 @@
 //! The exit code and message of every failure class of every command (the rule is in
-//! `codegen/src/cli/error.rs` and the README): 0 done and every claim holds; 1 a claim does not
+//! `codegen/src/cli/error.rs` and the book's Install chapter): 0 done and every claim holds; 1 a claim does not
 //! hold, or a tool it needs is missing or failed; 2 bad input or usage, including an output
 //! path that cannot be written.
 //!
@@ -150,7 +150,10 @@ fn aco_failures() {
         "aco: confidence outside [0, 1]",
         &run(&["aco", "--c", "1.5", "--out", &out], &[]),
         2,
-        &["--c 1.5 is outside [0, 1]", "help: c is 001 eq. 13"],
+        &[
+            "--c 1.5 is outside [0, 1]",
+            "help: c is the confidence level of Ivester & Danai, eq. 13",
+        ],
     );
     expect(
         "aco: no cycles",
@@ -183,7 +186,7 @@ fn aco_failures() {
             &[],
         ),
         0,
-        &["001  Tab.2", "3 seeded runs of 4 cycles"],
+        &["paper  Tab.2", "3 seeded runs of 4 cycles"],
     );
     for f in ["rcb2.txt", "rcb2-run.csv", "rcb2-run.png", "rcb2-study.svg"] {
         assert!(d.join("out").join(f).is_file(), "{f}");

@@ -1,11 +1,12 @@
 //! The `qloop` package's integration tests, one test binary (each module was a binary of its
 //! own; one link and one process for all of them, and `cargo test` runs them in parallel).
-//! See the README's "Tests" for what each tier holds.
+//! See the book's "Tests and their tiers" (docs/book/src/internals/tests.md) for what each tier holds.
 
 mod bench;
 mod cli;
 mod common;
 mod decimal_cmp;
+mod docs;
 mod exit_codes;
 mod first_day;
 mod gen_linuxcnc;

@@ -18,7 +18,7 @@ fn tmp(name: &str) -> PathBuf {
 
 // A closed-loop sweep and the proofs of every candidate: about 70 s in a debug build.
 #[test]
-#[ignore = "acceptance tier (README, Tests)"]
+#[ignore = "acceptance tier (docs/book/src/internals/tests.md)"]
 fn tune_rewrites_the_committed_tuned_spec_and_reports_its_front() {
     let dir = tmp("seed");
     let (out, report) = (dir.join("tuned.qloop"), dir.join("report.md"));

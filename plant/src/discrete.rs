@@ -2,7 +2,7 @@
 //! linear parts are advanced in closed form under a held input instead of by RK4.
 //!
 //! For `G(s) = b/(s + a)` driven through a ZOH of period `T` (input held constant over each
-//! period), `G(z) = (1 − z^-1)·Z{L^-1[G(s)/s]}` (004_9e0133852f31a0cf.txt, eq. 6) is
+//! period), `G(z) = (1 − z^-1)·Z{L^-1[G(s)/s]}` (Jenkins & Kurfess, eq. 6) is
 //!
 //! ```text
 //!     G(z) = b1/(z − a1),   a1 = e^{−aT},   b1 = (b/a)·(1 − a1)
@@ -12,15 +12,15 @@
 //! approximation in `T`): between samples the state relaxes exponentially toward `(b/a)·u`.
 //! For `a → 0` (an integrator `b/s`) `b1 → b·T`; [`zoh_first_order`] evaluates
 //! `(1 − e^{−aT})/a` through `exp_m1`, so it stays accurate there. At T = 2.214 ms the PMAC
-//! position loop 203/(s + 224) (004 eq. 1) becomes 0.3543/(z − 0.6090); at the paper's
-//! unrounded 5 × 442.7 µs = 2.2135 ms it is the 0.3543/(z − 0.6091) of 004 eq. 7.
+//! position loop 203/(s + 224) (Jenkins & Kurfess, eq. 1) becomes 0.3543/(z − 0.6090); at the paper's
+//! unrounded 5 × 442.7 µs = 2.2135 ms it is the 0.3543/(z − 0.6091) of Jenkins & Kurfess, eq. 7.
 
 /// A discrete first-order system `b1/(z − a1)`: `y(k+1) = a1·y(k) + b1·u(k)`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FirstOrder {
-    /// Numerator `b1` (004 eq. 7: 0.3543 per unit of `K_s`).
+    /// Numerator `b1` (Jenkins & Kurfess, eq. 7: 0.3543 per unit of `K_s`).
     pub b1: f64,
-    /// Pole `a1 = e^{−aT}` (004 eq. 7: 0.6091).
+    /// Pole `a1 = e^{−aT}` (Jenkins & Kurfess, eq. 7: 0.6091).
     pub a1: f64,
 }
 
@@ -45,7 +45,7 @@ fn phi(x: f64) -> f64 {
     }
 }
 
-/// The exact ZOH equivalent of `b/(s + a)` at period `t` (004 eq. 6 applied to a first-order
+/// The exact ZOH equivalent of `b/(s + a)` at period `t` (Jenkins & Kurfess, eq. 6 applied to a first-order
 /// system): `a1 = e^{−a·t}`, `b1 = (b/a)·(1 − a1)` (= `b·t` for `a = 0`).
 pub fn zoh_first_order(b: f64, a: f64, t: f64) -> FirstOrder {
     FirstOrder {
@@ -57,7 +57,7 @@ pub fn zoh_first_order(b: f64, a: f64, t: f64) -> FirstOrder {
 /// `(e^{−p·t} − e^{−q·t})/(q − p)`, continuous at `p = q` (where it is `t·e^{−p·t}`): the
 /// response at `t` of the cascade `1/(s + p) · 1/(s + q)` to a unit impulse. The grinding
 /// plant uses it to advance the process stage `s/(s + η)` behind the position lag `1/(s + 224)`
-/// exactly (004 eq. 12).
+/// exactly (Jenkins & Kurfess, eq. 12).
 pub fn exp_diff(p: f64, q: f64, t: f64) -> f64 {
     // (e^{−pt} − e^{−qt})/(q − p) = e^{−pt}·(1 − e^{−(q−p)t})/(q − p) = e^{−pt}·t·φ((q−p)t).
     (-p * t).exp() * t * phi((q - p) * t)
@@ -67,7 +67,7 @@ pub fn exp_diff(p: f64, q: f64, t: f64) -> f64 {
 mod tests {
     use super::*;
 
-    /// 004 eq. 7: the ZOH equivalent of 203/(s + 224) at the force-loop period is
+    /// Jenkins & Kurfess, eq. 7: the ZOH equivalent of 203/(s + 224) at the force-loop period is
     /// 0.3543/(z − 0.6091). The paper's period is 5 servo cycles of the measured 442.7 µs
     /// (text above eq. 6) = 2.2135 ms, which it rounds to "2.214-ms"; at 2.2135 ms both
     /// coefficients round to the paper's 4 digits. At exactly 2.214 ms the pole is 0.60900:

@@ -1,5 +1,5 @@
 //! Finish turning under geometric adaptive control (GAC): surface roughness per part, with a
-//! tool that wears (002_39e44efc2e4f2eb6.txt, eq. 29 and the text on Figs. 10-11).
+//! tool that wears (Koren's survey, eq. 29 and the text on Figs. 10-11).
 //!
 //! **Model.** One controller step per finished part: the feed `f` (mm/rev) is held for a part,
 //! the part's roughness is measured after it (a profilometer), and the next feed is chosen.
@@ -151,8 +151,8 @@ impl Plant for Finishing {
     }
     fn describe(&self) -> (&'static str, &'static str) {
         (
-            "surface roughness Ra of the last finished part (002 eq. 29)",
-            "feed for the next part (002, GAC, Figs. 10-11)",
+            "surface roughness Ra of the last finished part (Koren's survey, eq. 29)",
+            "feed for the next part (Koren's survey, GAC, Figs. 10-11)",
         )
     }
     fn channels(&self) -> Vec<Channel> {
@@ -210,7 +210,7 @@ impl Plant for Finishing {
                 name: "c2_new",
                 value: self.p.c2_new,
                 range: (17.0, 22.0),
-                why: "chosen: ±12% on the nose-radius term (002 eq. 28) for insert tolerances",
+                why: "chosen: ±12% on the nose-radius term (Koren's survey, eq. 28) for insert tolerances",
             },
         ]
     }

@@ -1,5 +1,5 @@
 //! Discretisation of a continuous transfer function under a fractional-order hold (β-FROH),
-//! 003_780323f84df40eb0.txt, eqs. 4–5.
+//! Rubio & De la Sen, eqs. 4–5.
 //!
 //! **The hold.** Between the sample instants `kT` and `(k+1)T` a β-FROH drives the plant with
 //! the last sample extrapolated along the last difference, scaled by the correcting gain β:
@@ -9,24 +9,24 @@
 //! ```
 //!
 //! β = 0 is the zero-order hold (ZOH), β = 1 the causal, extrapolating first-order hold
-//! (FOH) that 003 Sec. II.B means. Its impulse response is `1 + βt/T` on `[0, T)` and
+//! (FOH) that Rubio & De la Sen, Sec. II.B means. Its impulse response is `1 + βt/T` on `[0, T)` and
 //! `−β(t − T)/T` on `[T, 2T)`, so its transfer function is
 //!
 //! ```text
 //!     g_β(s) = (1 − β·e^{−Ts})·(1 − e^{−Ts})/s + β·(1 − e^{−Ts})²/(T·s²)
 //! ```
 //!
-//! which is what the damaged eq. 4 of 003 reads as (`g(s) = [1 − β e^{−Ts} + β(1 − e^{−Ts})/(Ts)]
+//! which is what the damaged eq. 4 of Rubio & De la Sen reads as (`g(s) = [1 − β e^{−Ts} + β(1 − e^{−Ts})/(Ts)]
 //! (1 − e^{−Ts})/s`; the extraction kept only fragments of it: derived from the hold above).
 //! The z-transform of `g_β(s)·G(s)` is then a combination of two ZOH discretisations,
-//! 003 eq. 5 (also damaged; derived the same way):
+//! Rubio & De la Sen, eq. 5 (also damaged; derived the same way):
 //!
 //! ```text
 //!     H_β(z) = ((z − β)/z)·Z[h₀(s)G(s)] + β(z − 1)/(T·z)·Z[h₀(s)G(s)/s],   h₀(s) = (1 − e^{−Ts})/s
 //! ```
 //!
 //! For β ≠ 0 it has one pole more than the ZOH model, at the origin ("a fractional order hold
-//! with β ≠ 0 always adds a pole at the origin", 003 after eq. 5); at β = 0 the pole cancels
+//! with β ≠ 0 always adds a pole at the origin", Rubio & De la Sen after eq. 5); at β = 0 the pole cancels
 //! and `H_0` is the ZOH model.
 //!
 //! **How it is computed here.** Not from eq. 5's polynomials, but from the hold itself, in
@@ -45,7 +45,7 @@
 //! (Faddeev–LeVerrier) and its Markov parameters `D, CΓ, CΦΓ, …`.
 //!
 //! **Against scipy.** `scipy.signal.cont2discrete(..., method="foh")` is the *triangle* hold
-//! (non-causal, impulse response `1 − |t|/T` on `[−T, T]`), not 003's FOH. The two are
+//! (non-causal, impulse response `1 − |t|/T` on `[−T, T]`), not Rubio & De la Sen's FOH. The two are
 //! related exactly: the β-FROH's impulse response is the ZOH pulse, plus β times the
 //! triangle delayed one period, minus β times the pulse delayed one period, so
 //! `H_β(z) = (1 − βz⁻¹)·H_zoh(z) + β·z⁻¹·H_tri(z)`. The test `froh_matches_scipy` checks
@@ -55,7 +55,7 @@
 use nalgebra::DMatrix;
 use std::fmt;
 
-/// The seven correcting gains of 003 Sec. V: β ∈ {−0.5, −0.3, 0, 0.3, 0.5, 0.8, 1}.
+/// The seven correcting gains of Rubio & De la Sen, Sec. V: β ∈ {−0.5, −0.3, 0, 0.3, 0.5, 0.8, 1}.
 pub const PAPER_BETAS: [f64; 7] = [-0.5, -0.3, 0.0, 0.3, 0.5, 0.8, 1.0];
 
 /// A continuous transfer function `num(s)/den(s)`, coefficients in descending powers of s.
@@ -76,13 +76,13 @@ impl ContinuousTf {
         }
     }
 
-    /// The initial estimated model of 003 Sec. V: `(−3s + 150)/(s² + 20s + 550)`.
+    /// The initial estimated model of Rubio & De la Sen, Sec. V: `(−3s + 150)/(s² + 20s + 550)`.
     pub fn paper_initial_model() -> ContinuousTf {
         ContinuousTf::new(&[-3.0, 150.0], &[1.0, 20.0, 550.0])
     }
 
-    /// The reference model of 003 Sec. V: `98.62/(s² + 15.89s + 98.62)` (ζ = 0.75,
-    /// ω_n = 9.93 rad/s; 003 Sec. II.C).
+    /// The reference model of Rubio & De la Sen, Sec. V: `98.62/(s² + 15.89s + 98.62)` (ζ = 0.75,
+    /// ω_n = 9.93 rad/s; Rubio & De la Sen, Sec. II.C).
     pub fn paper_reference_model() -> ContinuousTf {
         ContinuousTf::new(&[98.62], &[1.0, 15.89, 98.62])
     }
@@ -142,7 +142,7 @@ pub enum C2dError {
     },
     /// A coefficient, the period or β is not finite, or the period is not positive.
     Value(String),
-    /// β outside [−1, 1], where 003 Sec. II.B defines the FROH.
+    /// β outside [−1, 1], where Rubio & De la Sen, Sec. II.B defines the FROH.
     Beta(f64),
 }
 
@@ -162,8 +162,8 @@ impl fmt::Display for C2dError {
             C2dError::Value(why) => write!(f, "{why}"),
             C2dError::Beta(b) => write!(
                 f,
-                "β = {b} is outside [−1, 1], where 003 Sec. II.B defines the fractional-order \
-                 hold (and 003 Sec. V: β < −0.6 already gives an unstable discrete pole)"
+                "β = {b} is outside [−1, 1], where Rubio & De la Sen, Sec. II.B defines the fractional-order \
+                 hold (and Rubio & De la Sen, Sec. V: β < −0.6 already gives an unstable discrete pole)"
             ),
         }
     }
@@ -176,7 +176,7 @@ pub fn zoh(g: &ContinuousTf, period: f64) -> Result<DiscreteTf, C2dError> {
     froh(g, period, 0.0)
 }
 
-/// The β-FROH equivalent of `g` at period `period` (003 eqs. 4–5; module docs): order n for
+/// The β-FROH equivalent of `g` at period `period` (Rubio & De la Sen, eqs. 4–5; module docs): order n for
 /// β = 0 (the ZOH model), n + 1 otherwise (the hold's pole at the origin).
 pub fn froh(g: &ContinuousTf, period: f64, beta: f64) -> Result<DiscreteTf, C2dError> {
     if !beta.is_finite() {

@@ -1,5 +1,5 @@
 //! Plunge grinding under normal-force control (Jenkins & Kurfess, "Adaptive Pole-Zero
-//! Cancellation in Grinding Force Control, Part II", 004_9e0133852f31a0cf.txt).
+//! Cancellation in Grinding Force Control, Part II", Jenkins & Kurfess).
 //!
 //! **Model.** The force controller commands the X-axis position `x_d` (mm) every
 //! T = 2.214 ms (5 PMAC servo cycles, text above eq. 6), held between samples. Positions are
@@ -81,14 +81,14 @@ pub const PAPER_PERIOD_S: f64 = 5.0 * 442.7e-6;
 /// Grinding-plant parameters. Defaults are the paper's values, except where marked chosen.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GrindingParams {
-    /// Position-loop gain, 203 1/s (004 eq. 1, `203/(s + 224)`).
+    /// Position-loop gain, 203 1/s (Jenkins & Kurfess, eq. 1, `203/(s + 224)`).
     pub pos_gain_1_s: f64,
-    /// Position-loop pole, 224 1/s (004 eq. 1).
+    /// Position-loop pole, 224 1/s (Jenkins & Kurfess, eq. 1).
     pub pos_pole_1_s: f64,
-    /// Effective stiffness K_s of the axis and in-line strain-gauge sensor, 233 N/mm (004, text
+    /// Effective stiffness K_s of the axis and in-line strain-gauge sensor, 233 N/mm (Jenkins & Kurfess, text
     /// on Table 1; eqs. 2, 11).
     pub ks_n_mm: f64,
-    /// Nominal process parameter η = K_p·K_s·V/A in 1/s (004 eq. 11). The paper reports only
+    /// Nominal process parameter η = K_p·K_s·V/A in 1/s (Jenkins & Kurfess, eq. 11). The paper reports only
     /// η ≪ 224 (text below eq. 12; the values are in its Part I). Chosen: 2 1/s, which puts
     /// the fixed-gain loop's standing force error at 2.2% (24.45 N at 25 N), within the spread
     /// of Table 1's fixed-gain mean forces (24.34-26.06 N at 25 N). Scenarios scale it with the
@@ -125,7 +125,7 @@ impl Default for GrindingParams {
     }
 }
 
-/// The grinding plant: PMAC position loop and grinding process (004 eqs. 1, 11).
+/// The grinding plant: PMAC position loop and grinding process (Jenkins & Kurfess, eqs. 1, 11).
 #[derive(Clone, Debug)]
 pub struct Grinding {
     /// Parameters.
@@ -157,7 +157,7 @@ impl Grinding {
         (self.p.eta_1_s * sc.value("eta_factor", t, 1.0)).max(0.0)
     }
 
-    /// Normal force F_N = K_s·max(δ, 0) in N (004 eq. 11).
+    /// Normal force F_N = K_s·max(δ, 0) in N (Jenkins & Kurfess, eq. 11).
     pub fn force_n(&self) -> f64 {
         self.p.ks_n_mm * (self.x - self.w).max(0.0)
     }
@@ -185,8 +185,8 @@ impl Plant for Grinding {
     }
     fn describe(&self) -> (&'static str, &'static str) {
         (
-            "normal grinding force (004 eqs. 1-5)",
-            "infeed slide position command (004 eq. 9)",
+            "normal grinding force (Jenkins & Kurfess, eqs. 1-5)",
+            "infeed slide position command (Jenkins & Kurfess, eq. 9)",
         )
     }
     fn channels(&self) -> Vec<Channel> {
@@ -258,31 +258,31 @@ impl Plant for Grinding {
                 name: "eta_1_s",
                 value: p.eta_1_s,
                 range: (0.5, 10.0),
-                why: "chosen: η = K_p·K_s·V/A ≪ 224 (004 eq. 11 and text below eq. 12), varying with wheel, material and contact area",
+                why: "chosen: η = K_p·K_s·V/A ≪ 224 (Jenkins & Kurfess, eq. 11 and text below eq. 12), varying with wheel, material and contact area",
             },
             Param {
                 name: "ks_n_mm",
                 value: p.ks_n_mm,
                 range: (163.0, 303.0),
-                why: "chosen: ±30% on the 233 N/mm axis + sensor stiffness (004, text on Table 1) for wheel and workpiece contact compliance",
+                why: "chosen: ±30% on the 233 N/mm axis + sensor stiffness (Jenkins & Kurfess, text on Table 1) for wheel and workpiece contact compliance",
             },
             Param {
                 name: "pos_pole_1_s",
                 value: p.pos_pole_1_s,
                 range: (200.0, 250.0),
-                why: "004 identifies the pole at 224 (eq. 1) and also refers to it as s = -250 (text above Fig. 3); chosen down to 200 for other force levels",
+                why: "Jenkins & Kurfess identify the pole at 224 (eq. 1) and also refers to it as s = -250 (text above Fig. 3); chosen down to 200 for other force levels",
             },
             Param {
                 name: "pos_gain_1_s",
                 value: p.pos_gain_1_s,
                 range: (183.0, 223.0),
-                why: "chosen: ±10% on the ARX-identified 203 (004 eq. 1), fitted at one force level",
+                why: "chosen: ±10% on the ARX-identified 203 (Jenkins & Kurfess, eq. 1), fitted at one force level",
             },
             Param {
                 name: "sensor_gain",
                 value: p.sensor.gain,
                 range: (0.95, 1.05),
-                why: "chosen: ±5% strain-gauge calibration error (004: response 'approximately unity')",
+                why: "chosen: ±5% strain-gauge calibration error (Jenkins & Kurfess: response 'approximately unity')",
             },
         ]
     }

@@ -2,13 +2,13 @@
 //! closed-loop runner that drives the *compiled* fixed-point controller and its f64
 //! reference side by side.
 //!
-//! * [`turning`]: CNC lathe under ACC (000_b8cbacf29caa8fe2.txt, 002_39e44efc2e4f2eb6.txt).
-//! * [`milling`]: CNC lag and milling process under force control (003_780323f84df40eb0.txt,
+//! * [`turning`]: CNC lathe under ACC (Koren & Masory 1981, Koren's survey).
+//! * [`milling`]: CNC lag and milling process under force control (Rubio & De la Sen,
 //!   eqs. 1-3), the work-piece profile of its Fig. 1.
-//! * [`grinding`]: plunge grinding under force control (004_9e0133852f31a0cf.txt).
+//! * [`grinding`]: plunge grinding under force control (Jenkins & Kurfess).
 //! * [`finishing`]: finish turning under geometric adaptive control, roughness per part with a
-//!   wearing tool (002_39e44efc2e4f2eb6.txt eq. 29, Figs. 10-11).
-//! * [`discrete`]: exact ZOH discretisation of first-order parts (004 eqs. 6-7).
+//!   wearing tool (Koren's survey, eq. 29, Figs. 10-11).
+//! * [`discrete`]: exact ZOH discretisation of first-order parts (Jenkins & Kurfess, eqs. 6-7).
 //! * [`sensor`]: gain, seeded noise, saturation, ADC quantisation.
 //! * [`scenario`]: piecewise-linear channel schedules, in code or TOML.
 //! * [`plot`]: the figure of a run (SVG, PNG).

@@ -1,21 +1,21 @@
-//! Milling under force control: the plant of Rubio & De la Sen (003_780323f84df40eb0.txt,
-//! Sec. II.A and Sec. V).
+//! Milling under force control: the plant of Rubio & De la Sen
+//! (Sec. II.A and Sec. V).
 //!
 //! **Model.** The feed-rate command `f_c` (mm/s, the control signal) goes to the CNC unit,
-//! whose drives are tuned over-damped and modelled as a first-order lag (003 eq. 1):
+//! whose drives are tuned over-damped and modelled as a first-order lag (Rubio & De la Sen, eq. 1):
 //!
 //! ```text
-//!     f_a(s)/f_c(s) = 1/(τ_m·s + 1),        τ_m = 0.1 ms (003 Sec. II.A and Sec. V)
+//!     f_a(s)/f_c(s) = 1/(τ_m·s + 1),        τ_m = 0.1 ms (Rubio & De la Sen, Sec. II.A and Sec. V)
 //! ```
 //!
 //! and the chatter-free cutting process as a first-order lag with the process gain
-//! `K_p = K_c·a·b/(N·n)` (003 eq. 2; eq. 3 is the product of the two):
+//! `K_p = K_c·a·b/(N·n)` (Rubio & De la Sen, eq. 2; eq. 3 is the product of the two):
 //!
 //! ```text
 //!     F(s)/f_a(s) = K_c·a(φ_st, φ_ex, N)·b/(N·n) · 1/(τ_c·s + 1)
 //! ```
 //!
-//! with `K_c` = 1200 N/mm² (aluminium, 003 Sec. II.A and V), `N` = 4 teeth, `n` = 715 rpm
+//! with `K_c` = 1200 N/mm² (aluminium, Rubio & De la Sen, Sec. II.A and V), `N` = 4 teeth, `n` = 715 rpm
 //! (11.92 rev/s), `b` the axial depth of cut (mm) and `a` the non-dimensional immersion
 //! function (0 to N). Units: `K_c·b` in N/mm times the feed per tooth `f_a/(N·n)` in mm gives
 //! newtons, so `K_p` is in N·s/mm.
@@ -32,29 +32,29 @@
 //!   tangential forces `K_c·b·c·sin φ` and `K_c·b·c·cos φ`, so the resultant is
 //!   `K_c·b·c·√(sin²φ + cos²φ) = K_c·b·c` at every angle: **a = 1**, and the peak force
 //!   equals the mean (derived; a radial component `K_r` would scale it by √(1 + K_r²)).
-//! * `K_c` prints as "1zoo": 1200 N/mm² (003 Sec. V prints "1200").
+//! * `K_c` prints as "1zoo": 1200 N/mm² (Rubio & De la Sen, Sec. V prints "1200").
 //!
 //! **Realisation.** Between depth changes the process is eq. 2; across a sudden change of
-//! `b` (003: "piecewise constant, while admitting sudden changes in the cutting parameters
+//! `b` (Rubio & De la Sen: "piecewise constant, while admitting sudden changes in the cutting parameters
 //! at certain time instants") the lag is placed on the feed (the chip load builds up over a
 //! revolution) and the gain multiplies its output: `F = K_p(b(t))·f_h` with
 //! `τ_c·ḟ_h = f_a − f_h`. A depth step therefore changes the force at once by `b₂/b₁`, the
-//! "peaks ... when the axial depth of cut ... is suddenly altered" of 003 Sec. V. Both lags
+//! "peaks ... when the axial depth of cut ... is suddenly altered" of Rubio & De la Sen, Sec. V. Both lags
 //! are advanced exactly under the held command (the cascade's closed form, not RK4): the
 //! controller output is held (ZOH) and applied at the sample instant, with no transport
-//! delay (003 eq. 3 has none, and "the CNC unit has its own digital position law executed
-//! at small time intervals in comparison with the sampled time", 003 Sec. II.A).
+//! delay (Rubio & De la Sen, eq. 3 has none, and "the CNC unit has its own digital position law executed
+//! at small time intervals in comparison with the sampled time", Rubio & De la Sen, Sec. II.A).
 //!
-//! **The closed loop and what sets stability.** Sampled at `T = 1/n` (003 Sec. V), `τ_m`
+//! **The closed loop and what sets stability.** Sampled at `T = 1/n` (Rubio & De la Sen, Sec. V), `τ_m`
 //! is negligible (`e^{−T/τ_m}` ≈ 10⁻³⁶⁴) and the process is `K_p(1 − α)/(z − α)` with
 //! `α = e^{−T/τ_c}` = e^{−1} = 0.368. With the integral law `U(i) = U(i−1) + K_c·E(i)`
-//! (002 eq. 8) and `K = K_c·K_p` the characteristic polynomial is
+//! (Koren's survey, eq. 8) and `K = K_c·K_p` the characteristic polynomial is
 //! `z² − (1 + α − K(1 − α))z + α`: stable iff `0 < K < 2(1 + α)/(1 − α)` = **4.33**
 //! (2 if τ_c were zero, the worst reading of the damaged τ_c). The poles are complex for
 //! `K > (1 − √α)/(1 + √α)` = 0.245 and then lie on `|z| = √α` = 0.607 whatever `K`: `K`
 //! only sets their angle, the decay per period is fixed by the process lag. Because the
 //! force is linear in the feed, the secant gain `F/U` that the Koren–Masory estimator
-//! tracks (000 eqs. 8-9) *is* `K_p`, and holding `K_c·K_m` constant holds the true loop
+//! tracks (Koren & Masory 1981, eqs. 8-9) *is* `K_p`, and holding `K_c·K_m` constant holds the true loop
 //! gain: with the spec `milling_acc` (K = 1/2) the gain margin is 8.7 at every depth. The
 //! process gain spans 0.050 → 0.126 kN/(mm/s) over Fig. 1's 2 → 5 mm, so a fixed gain
 //! tuned at 2 mm would still be stable at 5 mm (K ×2.5): unlike turning, milling at these
@@ -68,27 +68,27 @@ use crate::plant::{unknown_param, Param, Plant};
 use crate::scenario::{Scenario, Schedule};
 use crate::sensor::SensorParams;
 
-/// Milling-plant parameters (003_780323f84df40eb0.txt, Sec. II.A and Sec. V).
+/// Milling-plant parameters (Rubio & De la Sen, Sec. II.A and Sec. V).
 #[derive(Clone, Debug, PartialEq)]
 pub struct MillingParams {
-    /// Specific cutting pressure K_c in N/mm² (003 eq. 2; Sec. V: 1200 N/mm², aluminium).
+    /// Specific cutting pressure K_c in N/mm² (Rubio & De la Sen, eq. 2; Sec. V: 1200 N/mm², aluminium).
     pub kc_n_mm2: f64,
-    /// Number of teeth N (003 Sec. II.A: "a 4-fluted carbide mill tool"; Sec. V: N = 4).
+    /// Number of teeth N (Rubio & De la Sen, Sec. II.A: "a 4-fluted carbide mill tool"; Sec. V: N = 4).
     pub teeth: f64,
-    /// Immersion function a (003 eq. 2): 1, derived for full immersion with 4 teeth (module
+    /// Immersion function a (Rubio & De la Sen, eq. 2): 1, derived for full immersion with 4 teeth (module
     /// docs). A scenario channel `immersion` overrides it.
     pub immersion: f64,
-    /// Spindle speed n in rpm (003 Sec. V: 715 rpm, constant). A scenario channel `n_rpm`
+    /// Spindle speed n in rpm (Rubio & De la Sen, Sec. V: 715 rpm, constant). A scenario channel `n_rpm`
     /// overrides it.
     pub n_rpm: f64,
-    /// CNC time constant τ_m in s (003 eq. 1 and Sec. V: 0.1 ms).
+    /// CNC time constant τ_m in s (Rubio & De la Sen, eq. 1 and Sec. V: 0.1 ms).
     pub tau_m_s: f64,
     /// Cutting-process time constant τ_c in spindle revolutions: τ_c = `tau_c_rev`/n
-    /// (003 eq. 2 and Sec. V; the OCR-damaged "τ_c = %" read as 1/n, see the module docs).
+    /// (Rubio & De la Sen, eq. 2 and Sec. V; the OCR-damaged "τ_c = %" read as 1/n, see the module docs).
     pub tau_c_rev: f64,
-    /// Reference force F_r in kN (003 Sec. V: 1.2 kN), for metrics.
+    /// Reference force F_r in kN (Rubio & De la Sen, Sec. V: 1.2 kN), for metrics.
     pub fr_kn: f64,
-    /// Force sensor. Chosen as for turning: 12-bit ADC over 0-5 kN (1.22 N LSB), gain 1; 003
+    /// Force sensor. Chosen as for turning: 12-bit ADC over 0-5 kN (1.22 N LSB), gain 1; Rubio & De la Sen
     /// does not model the sensor.
     pub sensor: SensorParams,
 }
@@ -114,21 +114,21 @@ impl Default for MillingParams {
 }
 
 impl MillingParams {
-    /// The process gain K_p = K_c·a·b/(N·n) of 003 eq. 3, in kN/(mm/s) (= kN·s/mm), at
+    /// The process gain K_p = K_c·a·b/(N·n) of Rubio & De la Sen, eq. 3, in kN/(mm/s) (= kN·s/mm), at
     /// axial depth `b_mm`, immersion `a` and spindle speed `n_rpm`.
     pub fn process_gain(&self, b_mm: f64, a: f64, n_rpm: f64) -> f64 {
         self.kc_n_mm2 * a * b_mm / (self.teeth * n_rpm / 60.0) / 1000.0
     }
 }
 
-/// The milling plant: CNC lag and cutting process of 003 eqs. 1-2.
+/// The milling plant: CNC lag and cutting process of Rubio & De la Sen, eqs. 1-2.
 #[derive(Clone, Debug)]
 pub struct Milling {
     /// Parameters.
     pub p: MillingParams,
-    /// Table feed f_a (mm/s), the CNC lag's output (003 eq. 1).
+    /// Table feed f_a (mm/s), the CNC lag's output (Rubio & De la Sen, eq. 1).
     fa: f64,
-    /// Feed seen by the cut f_h (mm/s): f_a through the process lag τ_c (003 eq. 2).
+    /// Feed seen by the cut f_h (mm/s): f_a through the process lag τ_c (Rubio & De la Sen, eq. 2).
     fh: f64,
     /// The held feed-rate command f_c (mm/s).
     cmd: f64,
@@ -162,7 +162,7 @@ impl Milling {
         sc.value("n_rpm", t, self.p.n_rpm).max(1e-9)
     }
 
-    /// The process gain K_p (kN/(mm/s)) now (003 eq. 3).
+    /// The process gain K_p (kN/(mm/s)) now (Rubio & De la Sen, eq. 3).
     pub fn process_gain(&self, sc: &Scenario, t: f64) -> f64 {
         self.p
             .process_gain(Self::depth(sc, t), self.immersion(sc, t), self.speed(sc, t))
@@ -178,7 +178,7 @@ impl Milling {
         self.fa
     }
 
-    /// Peak cutting force F = K_p·f_h in kN (003 eq. 2 at the lagged feed).
+    /// Peak cutting force F = K_p·f_h in kN (Rubio & De la Sen, eq. 2 at the lagged feed).
     pub fn force_kn(&self, sc: &Scenario, t: f64) -> f64 {
         self.process_gain(sc, t) * self.fh.max(0.0)
     }
@@ -196,8 +196,8 @@ impl Plant for Milling {
     }
     fn describe(&self) -> (&'static str, &'static str) {
         (
-            "resultant cutting force (003 eq. 3)",
-            "table feedrate to the CNC lag (003 eqs. 1-2)",
+            "resultant cutting force (Rubio & De la Sen, eq. 3)",
+            "table feedrate to the CNC lag (Rubio & De la Sen, eqs. 1-2)",
         )
     }
     fn channels(&self) -> Vec<Channel> {
@@ -206,7 +206,7 @@ impl Plant for Milling {
                 name: "b_mm",
                 unit: "mm",
                 default: 3.0,
-                what: "axial depth of cut (work-piece profile, 003 Fig. 1)",
+                what: "axial depth of cut (work-piece profile, Rubio & De la Sen, Fig. 1)",
             },
             Channel {
                 name: "immersion",
@@ -292,19 +292,19 @@ impl Plant for Milling {
                 name: "kc_n_mm2",
                 value: p.kc_n_mm2,
                 range: (0.7 * p.kc_n_mm2, 1.3 * p.kc_n_mm2),
-                why: "chosen: ±30% about 003's 1200 N/mm² (eq. 2): aluminium alloys and tool wear",
+                why: "chosen: ±30% about Rubio & De la Sen's 1200 N/mm² (eq. 2): aluminium alloys and tool wear",
             },
             Param {
                 name: "tau_c_rev",
                 value: p.tau_c_rev,
                 range: (0.25, 2.0),
-                why: "003 eq. 2's τ_c is OCR-damaged (read as 1/n): from one tooth period 1/(N·n) to two revolutions",
+                why: "the τ_c of Rubio & De la Sen, eq. 2, is OCR-damaged (read as 1/n): from one tooth period 1/(N·n) to two revolutions",
             },
             Param {
                 name: "tau_m_s",
                 value: p.tau_m_s,
                 range: (1e-4, 0.03),
-                why: "003 eq. 1: 0.1 ms; chosen upper end 30 ms, a slow CNC velocity loop (turning uses 10-40 ms)",
+                why: "Rubio & De la Sen, eq. 1: 0.1 ms; chosen upper end 30 ms, a slow CNC velocity loop (turning uses 10-40 ms)",
             },
             Param {
                 name: "sensor_gain",
@@ -327,14 +327,14 @@ impl Plant for Milling {
     }
 }
 
-/// The work-piece of 003 Fig. 1 as (axial depth b in mm, segment duration in s).
+/// The work-piece of Rubio & De la Sen, Fig. 1 as (axial depth b in mm, segment duration in s).
 ///
 /// The figure is lost in the text extraction; its labels survive as "3mm 5mm 3mm / 2mm" and
 /// "5.87mm 5.87mm 7.55mm / 5.87mm" ("5mm" printed "Smm"). Assumed: four segments, the first
 /// row the axial depths b = 3, 5, 3, 2 mm (every neighbour differs, as "changes in the axial
 /// depth of cut" require; the second row has two equal neighbours) and the second row their
 /// lengths 5.87, 5.87, 7.55, 5.87 mm, paired in order. The paper switches the transfer
-/// function "at certain time instants" (003 Sec. II.A), and its time axes (Fig. 5) run
+/// function "at certain time instants" (Rubio & De la Sen, Sec. II.A), and its time axes (Fig. 5) run
 /// 0-25 s, the total 25.16 of the lengths, so each segment is taken to last its length read
 /// in seconds (1 mm of the drawing = 1 s), with the cut starting at t = 0 from rest.
 pub const FIG1_PROFILE: [(f64, f64); 4] = [(3.0, 5.87), (5.0, 5.87), (3.0, 7.55), (2.0, 5.87)];
@@ -352,13 +352,13 @@ fn fig1_schedule(t0: f64) -> (Schedule, f64) {
     (Schedule(pts), t)
 }
 
-/// The milling scenarios: 003 Fig. 1's depth profile at 715 rpm, the same with sensor noise,
+/// The milling scenarios: the depth profile of Rubio & De la Sen, Fig. 1, at 715 rpm, the same with sensor noise,
 /// and an air gap.
 pub fn scenarios() -> Vec<Scenario> {
     let n715 = Schedule::constant(715.0);
     let (profile, end) = fig1_schedule(0.0);
     vec![
-        // 003 Fig. 1: b = 3 → 5 → 3 → 2 mm (see FIG1_PROFILE).
+        // Rubio & De la Sen, Fig. 1: b = 3 → 5 → 3 → 2 mm (see FIG1_PROFILE).
         Scenario::new(
             "depth-profile",
             end,
@@ -422,7 +422,7 @@ mod tests {
 
     #[test]
     fn steady_state_force_is_kc_a_b_feed_over_n_n() {
-        // 003 eq. 3 at DC, by hand: K_c·a·b·f/(N·n) = 1200·1·3·10/(4·715/60) N = 755.24 N.
+        // Rubio & De la Sen, eq. 3 at DC, by hand: K_c·a·b·f/(N·n) = 1200·1·3·10/(4·715/60) N = 755.24 N.
         let expect_n: f64 = 1200.0 * 3.0 * 10.0 / (4.0 * 715.0 / 60.0);
         assert!((expect_n - 755.2448).abs() < 1e-4);
         let mut p = Milling::new(MillingParams::default());
@@ -489,7 +489,7 @@ mod tests {
     #[test]
     fn a_depth_step_scales_the_force_at_once() {
         // Steady 3 mm cut at 15.89 mm/s (F = F_r), then Fig. 1's step to 5 mm at 5.87 s: the
-        // force jumps to F_r·5/3 = 2 kN with no lag (003 Sec. V's "peaks").
+        // force jumps to F_r·5/3 = 2 kN with no lag (Rubio & De la Sen, Sec. V's "peaks").
         let mut p = Milling::new(MillingParams::default());
         let sc = profile();
         let feed = 1.2 / p.p.process_gain(3.0, 1.0, 715.0);

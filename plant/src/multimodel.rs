@@ -1,23 +1,23 @@
-//! The multi-model adaptive force controller of Rubio & De la Sen (003_780323f84df40eb0.txt,
-//! Secs. III–IV) as a textbook f64 design: parallel RLS estimators on β-FROH models, a
+//! The multi-model adaptive force controller of Rubio & De la Sen (Secs. III–IV)
+//! as a textbook f64 design: parallel RLS estimators on β-FROH models, a
 //! model-following pole-placement law per estimate, and a switching supervisor with a
 //! minimum residence time. It divides freely: it is the independent float oracle for the
 //! generated, division-free controller of issue 17, and the design study behind it.
 //!
 //! **Models** ([`crate::froh`]). For β = 0 (ZOH) the estimated model is
 //! `A = z² + a₁z + a₂`, `B = b₁z + b₂`; for β ≠ 0 the hold adds a pole at the origin,
-//! `A = z(z² + a₁z + a₂)`, `B = b₁z² + b₂z + b₃` (003 after eq. 5: "n = 3 since a new pole at
+//! `A = z(z² + a₁z + a₂)`, `B = b₁z² + b₂z + b₃` (Rubio & De la Sen after eq. 5: "n = 3 since a new pole at
 //! the origin is automatically added"). The origin pole is structural, so it is not
 //! estimated: θ = (a₁, a₂, b₁, b₂[, b₃]), regressor φ_k = (−y_{k−1}, −y_{k−2}, u_{k−1},
-//! u_{k−2}[, u_{k−3}]), one estimator per β, each initialised from the β-FROH model of 003's
-//! initial guess `(−3s + 150)/(s² + 20s + 550)` (003 Sec. V).
+//! u_{k−2}[, u_{k−3}]), one estimator per β, each initialised from the β-FROH model of Rubio & De la Sen's
+//! initial guess `(−3s + 150)/(s² + 20s + 550)` (Rubio & De la Sen, Sec. V).
 //!
-//! **RLS** (003 eq. 11, with a forgetting factor λ, 1 in the paper):
+//! **RLS** (Rubio & De la Sen, eq. 11, with a forgetting factor λ, 1 in the paper):
 //! `θ_k = θ_{k−1} + P_{k−1}φ_k·e_k/(λ + φ_kᵀP_{k−1}φ_k)`, `e_k = y_k − φ_kᵀθ_{k−1}`,
 //! `P_k = (P_{k−1} − P_{k−1}φ_kφ_kᵀP_{k−1}/(λ + φ_kᵀP_{k−1}φ_k))/λ`.
 //!
-//! **Pole placement** (003 eqs. 7–9; the extraction garbles the degree conditions, derived
-//! here). 003's plant zeros include unstable ones (the ZOH zero of the initial model is at
+//! **Pole placement** (Rubio & De la Sen, eqs. 7–9; the extraction garbles the degree conditions, derived
+//! here). Rubio & De la Sen's plant zeros include unstable ones (the ZOH zero of the initial model is at
 //! z = −1.035), so no zero is cancelled: `B⁻ = B`, and the law `R·u = T·y_r − S·y` places
 //! the closed-loop characteristic polynomial `A·R + B·S` on the reference model's poles
 //! times an observer polynomial `A_o`:
@@ -28,52 +28,52 @@
 //!   `(z² + a₁z + a₂)·R + B·(s₀z + s₁) = z·(z − ρ)·A_m'`,
 //!
 //! where `A_m' = z² + m₁z + m₂` is the reference model `98.62/(s² + 15.89s + 98.62)`
-//! discretised (its poles do not depend on the hold), and ρ the observer root (003 asks only
+//! discretised (its poles do not depend on the hold), and ρ the observer root (Rubio & De la Sen asks only
 //! that A_0 be stable and monic; ρ = 0 is deadbeat). `T = t₀·A_o` with
 //! `t₀ = A_m'(1)/B(1)` gives `y/y_r = t₀·B/(z^d·A_m')` (d = 1 for β ≠ 0): the observer
 //! cancels from reference to force, and the DC gain is 1. The linear
 //! system is the Sylvester system of (A, B); its determinant vanishes exactly when A and B
-//! share a root (003: "provided that [A, B] are co-prime"). When it is too small, the
+//! share a root (Rubio & De la Sen: "provided that [A, B] are co-prime"). When it is too small, the
 //! controller keeps its last solution.
 //!
-//! **Supervisor** (003 Sec. IV.B; the index's formula is garbled, read as a window sum):
+//! **Supervisor** (Rubio & De la Sen, Sec. IV.B; the index's formula is garbled, read as a window sum):
 //! `J_l = Σ_{j=k−M+1}^{k} (ŷ_j^{(l)} − y_j)²` with `ŷ^{(l)}` the a-priori prediction of
 //! estimator l, `c = argmin J_l`, and a switch to c only if at least `N_r` periods have
-//! passed since the last switch (003 Sec. V: N_r = 2).
+//! passed since the last switch (Rubio & De la Sen, Sec. V: N_r = 2).
 
 use crate::controller::{Controller, Signals};
 use crate::froh::{froh, ContinuousTf, PAPER_BETAS};
 use nalgebra::{DMatrix, DVector};
 use std::collections::VecDeque;
 
-/// Parameters of the design (003 Sec. V where it gives them).
+/// Parameters of the design (Rubio & De la Sen, Sec. V where it gives them).
 #[derive(Clone, Debug)]
 pub struct MultiModelParams {
-    /// Sampling period T (003 Sec. V: 0.0839 s).
+    /// Sampling period T (Rubio & De la Sen, Sec. V: 0.0839 s).
     pub period: f64,
-    /// The correcting gains β of the parallel estimators (003 Sec. V: seven).
+    /// The correcting gains β of the parallel estimators (Rubio & De la Sen, Sec. V: seven).
     pub betas: Vec<f64>,
-    /// The estimator whose controller is active at the start (003 Sec. V, Fig. 4: β = −0.3).
+    /// The estimator whose controller is active at the start (Rubio & De la Sen, Sec. V, Fig. 4: β = −0.3).
     pub initial: usize,
     /// Whether the supervisor switches (false: the initial controller throughout).
     pub switching: bool,
-    /// Minimum residence time N_r in periods (003 Sec. V: 2).
+    /// Minimum residence time N_r in periods (Rubio & De la Sen, Sec. V: 2).
     pub residence: usize,
-    /// Window M of the switching index, in periods (003 does not give it; chosen).
+    /// Window M of the switching index, in periods (Rubio & De la Sen does not give it; chosen).
     pub window: usize,
-    /// RLS forgetting factor λ (1 in 003 eq. 11).
+    /// RLS forgetting factor λ (1 in Rubio & De la Sen, eq. 11).
     pub lambda: f64,
-    /// Initial covariance P₀ = p0·I (003: "arbitrary").
+    /// Initial covariance P₀ = p0·I (Rubio & De la Sen: "arbitrary").
     pub p0: f64,
-    /// Reference force F_r in kN (003 Sec. V: 1.2 kN).
+    /// Reference force F_r in kN (Rubio & De la Sen, Sec. V: 1.2 kN).
     pub force_ref: f64,
     /// Feed command limits in mm/s.
     pub feed: (f64, f64),
     /// Feed command before the first sample, mm/s.
     pub feed0: f64,
-    /// The estimators' initial continuous model (003 Sec. V).
+    /// The estimators' initial continuous model (Rubio & De la Sen, Sec. V).
     pub initial_model: ContinuousTf,
-    /// The continuous reference model (003 Sec. V).
+    /// The continuous reference model (Rubio & De la Sen, Sec. V).
     pub reference_model: ContinuousTf,
     /// Smallest |Sylvester determinant|, and smallest |B(1)| (t₀'s divisor), for which the
     /// controller is re-solved.
@@ -81,7 +81,7 @@ pub struct MultiModelParams {
     /// Whether the estimators adapt (false: every controller stays the initial model's).
     pub adapt: bool,
     /// The observer root ρ: `A_o = z − ρ` (ZOH) or `z·(z − ρ)` (β ≠ 0); 0 is deadbeat.
-    /// 003 asks only that A_0 be stable and monic.
+    /// Rubio & De la Sen asks only that A_0 be stable and monic.
     pub observer: f64,
 }
 
@@ -346,7 +346,7 @@ impl Controller for MultiModel {
 
     fn step(&mut self, inputs: &[f64], outputs: &mut [f64]) {
         let y = inputs[0];
-        // Estimation (003 eq. 11) and the switching index (003 Sec. IV.B).
+        // Estimation (Rubio & De la Sen, eq. 11) and the switching index (Rubio & De la Sen, Sec. IV.B).
         for l in 0..self.pairs.len() {
             let nb = self.pairs[l].nb();
             let phi = self.regressor(nb);

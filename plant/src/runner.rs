@@ -94,9 +94,9 @@ struct Loop {
 }
 
 /// The controller output that selects a β fractional-order hold between controller and
-/// plant (003_780323f84df40eb0.txt, eqs. 4-5; `crate::froh`): over each period the plant is
+/// plant (Rubio & De la Sen, eqs. 4-5; `crate::froh`): over each period the plant is
 /// driven with `u_k + β·(u_k − u_{k−1})·(t − kT)/T` instead of `u_k` held. β is clamped to
-/// [−1, 1], where 003 defines the hold.
+/// [−1, 1], where Rubio & De la Sen defines the hold.
 pub const HOLD_BETA: &str = "hold_beta";
 
 impl Loop {

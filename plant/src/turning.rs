@@ -1,11 +1,11 @@
-//! Turning on a CNC lathe under ACC (000_b8cbacf29caa8fe2.txt, Figs. 1-2;
-//! 002_39e44efc2e4f2eb6.txt, Figs. 4, 7).
+//! Turning on a CNC lathe under ACC (Koren & Masory 1981, Figs. 1-2;
+//! Koren's survey, Figs. 4, 7).
 //!
 //! Command path: the controller's feedrate command `V_f` (mm/s) reaches the axis servo one
 //! controller period after it is computed, and the servo follows it as a first-order lag:
-//! 000 only says "G_1(s) represents the hardware servo loop of the CNC". Process: feed per
-//! revolution `f = V/(n/60)` (002 eq. 4 with p = 1) and main cutting force
-//! `F = K_s·a·f^u` (002 eq. 5; 000 eq. 10 uses u ≈ 0.7). Force sensor and ADC: gain, noise,
+//! Koren & Masory (1981) only says "G_1(s) represents the hardware servo loop of the CNC". Process: feed per
+//! revolution `f = V/(n/60)` (Koren's survey, eq. 4 with p = 1) and main cutting force
+//! `F = K_s·a·f^u` (Koren's survey, eq. 5; Koren & Masory (1981), eq. 10 uses u ≈ 0.7). Force sensor and ADC: gain, noise,
 //! 12-bit over 0-5 kN.
 //!
 //! **What sets the stability boundary.** With the integral law `U(i) = U(i-1) + K_c·E(i)`,
@@ -30,12 +30,12 @@ use std::collections::VecDeque;
 /// Turning-plant parameters.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TurningParams {
-    /// Specific cutting force K_s in kN/(mm·(mm/rev)^u) (002 eq. 5). Default: calibrated once,
+    /// Specific cutting force K_s in kN/(mm·(mm/rev)^u) (Koren's survey, eq. 5). Default: calibrated once,
     /// so that the variable-gain controller's K_c settles at the paper's 1.5 at 2 mm and
     /// 500 rpm ([`calibrated_ks`]); ≈ 2.33, i.e. 2330 N/mm² at 1 mm/rev, a steel-like value.
     pub ks: f64,
-    /// Force exponent u (002 eq. 5, 0.6 < u < 1): 0.74, from tool-maker force tables
-    /// (000 eq. 10 rounds it to 0.7).
+    /// Force exponent u (Koren's survey, eq. 5, 0.6 < u < 1): 0.74, from tool-maker force tables
+    /// (Koren & Masory 1981, eq. 10 rounds it to 0.7).
     pub u: f64,
     /// Servo time constant in s. Chosen: 20 ms, a typical CNC velocity loop; it does not
     /// move the stability limit (see the module docs).
@@ -43,7 +43,7 @@ pub struct TurningParams {
     /// Command transport delay in s. Chosen: one controller period (0.1 s): the new feedrate
     /// reaches the interpolator at its next cycle.
     pub delay_s: f64,
-    /// Reference force F_r in kN (002: 1500 N), for metrics.
+    /// Reference force F_r in kN (Koren's survey: 1500 N), for metrics.
     pub fr_kn: f64,
     /// Force sensor.
     pub sensor: SensorParams,
@@ -55,7 +55,7 @@ pub struct TurningParams {
 }
 
 /// The paper operating point used to calibrate K_s: at a = 2 mm and n = 500 rpm the
-/// variable-gain controller (K = 1.25) settles at K_c = 1.5 (000, text on Fig. 5b), so
+/// variable-gain controller (K = 1.25) settles at K_c = 1.5 (Koren & Masory 1981, text on Fig. 5b), so
 /// K_m = K/K_c = 0.833 kN/(mm/s) and U = F_r/K_m = 1.8 mm/s.
 pub fn calibrated_ks(u: f64) -> f64 {
     let (k_loop, kc, fr, a, n): (f64, f64, f64, f64, f64) = (1.25, 1.5, 1.5, 2.0, 500.0);
@@ -131,7 +131,7 @@ impl Turning {
         self.v.max(0.0) / (Self::speed(sc, t) / 60.0)
     }
 
-    /// Main cutting force F = K_s·a·f^u in kN (002 eq. 5).
+    /// Main cutting force F = K_s·a·f^u in kN (Koren's survey, eq. 5).
     pub fn force_kn(&self, sc: &Scenario, t: f64) -> f64 {
         let a = self.depth(sc, t);
         let f = self.feed_per_rev(sc, t);
@@ -154,8 +154,8 @@ impl Plant for Turning {
     }
     fn describe(&self) -> (&'static str, &'static str) {
         (
-            "main cutting force F_c (002 eq. 5)",
-            "axial feedrate V_f to the servo (002 eq. 4)",
+            "main cutting force F_c (Koren's survey, eq. 5)",
+            "axial feedrate V_f to the servo (Koren's survey, eq. 4)",
         )
     }
     fn channels(&self) -> Vec<Channel> {
@@ -241,13 +241,13 @@ impl Plant for Turning {
                 name: "ks",
                 value: p.ks,
                 range: (0.7 * p.ks, 1.3 * p.ks),
-                why: "±30%: specific cutting force across steels and tool wear (002 eq. 5)",
+                why: "±30%: specific cutting force across steels and tool wear (Koren's survey, eq. 5)",
             },
             Param {
                 name: "u",
                 value: p.u,
                 range: (0.7, 0.85),
-                why: "force exponent (002 eq. 5: 0.6 < u < 1); Kienzle tables for steels give 1 - mc = 0.70-0.85",
+                why: "force exponent (Koren's survey, eq. 5: 0.6 < u < 1); Kienzle tables for steels give 1 - mc = 0.70-0.85",
             },
             Param {
                 name: "tau_servo_s",
@@ -276,12 +276,12 @@ impl Plant for Turning {
     }
 }
 
-/// The turning scenarios of the papers' experiments (000 Figs. 5-7), plus an air gap and
+/// The turning scenarios of the papers' experiments (Koren & Masory 1981, Figs. 5-7), plus an air gap and
 /// sensor noise. The tool approaches in air for 1 s, then engages.
 pub fn scenarios() -> Vec<Scenario> {
     let n500 = Schedule::constant(500.0);
     vec![
-        // 000 Fig. 5: depth 2 → 4 → 6 mm at 500 rpm.
+        // Koren & Masory (1981), Fig. 5: depth 2 → 4 → 6 mm at 500 rpm.
         Scenario::new(
             "depth-steps",
             46.0,
@@ -301,7 +301,7 @@ pub fn scenarios() -> Vec<Scenario> {
                 ("n_rpm", n500.clone()),
             ],
         ),
-        // 000 Fig. 6: depth ramped linearly from 2 to 8 mm.
+        // Koren & Masory (1981), Fig. 6: depth ramped linearly from 2 to 8 mm.
         Scenario::new(
             "depth-ramp",
             60.0,
@@ -314,7 +314,7 @@ pub fn scenarios() -> Vec<Scenario> {
                 ("n_rpm", n500.clone()),
             ],
         ),
-        // 000 Fig. 7: spindle 500 → 300 rpm. The depth is not given; 4 mm chosen: there the
+        // Koren & Masory (1981), Fig. 7: spindle 500 → 300 rpm. The depth is not given; 4 mm chosen: there the
         // conventional loop is stable at 500 rpm and, by the force model, not at 300 rpm.
         Scenario::new(
             "speed-drop",

@@ -1,7 +1,7 @@
-//! The β-FROH discretisation (003_780323f84df40eb0.txt, eqs. 4–5) against scipy: the stored
+//! The β-FROH discretisation (Rubio & De la Sen, eqs. 4–5) against scipy: the stored
 //! oracle `tests/oracle/froh_scipy.toml` is written (and, in CI, re-checked) by
 //! `tests/oracle/froh_scipy.py`, which builds every β-FROH model from scipy's own ZOH and
-//! triangle-hold discretisations and from 003 eq. 5, sharing no code with `froh.rs`.
+//! triangle-hold discretisations and from Rubio & De la Sen, eq. 5, sharing no code with `froh.rs`.
 
 use qloop_plant::froh::{froh, zoh, ContinuousTf, PAPER_BETAS};
 use serde::Deserialize;
@@ -86,7 +86,7 @@ fn froh_matches_scipy() {
 
 #[test]
 fn froh_at_one_is_not_scipys_triangle_hold() {
-    // β = 1 is 003's causal FOH: its first sample after the impulse is larger than the
+    // β = 1 is Rubio & De la Sen's causal FOH: its first sample after the impulse is larger than the
     // ZOH's (the hold extrapolates upward for one period), and it is causal (h[0] = 0 for a
     // strictly proper plant), unlike scipy's "foh", the non-causal triangle hold.
     let g = ContinuousTf::paper_initial_model();

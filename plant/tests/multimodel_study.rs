@@ -1,6 +1,6 @@
-//! Design study for issue 17: 003's multi-model controller, as the f64 oracle
+//! Design study for issue 17: Rubio & De la Sen's multi-model controller, as the f64 oracle
 //! `qloop_plant::multimodel`, on the milling plant driven through the *active* β-FROH (the
-//! hold is part of the loop: 003 Fig. 3), against the ZOH-only design (β = 0, one
+//! hold is part of the loop: Rubio & De la Sen, Fig. 3), against the ZOH-only design (β = 0, one
 //! estimator). `cargo test -p qloop-plant --test integration multimodel_study:: -- --nocapture` prints the
 //! per-segment table and, with `MM_TRACE=1`, the active estimate and law every 2 s.
 //!
@@ -10,13 +10,13 @@
 //! third order, so A and B are not identifiable as co-prime: the estimates drift towards a
 //! pole–zero cancellation, the Sylvester determinant falls by 10⁻³ to 10⁻⁷ of its initial
 //! value, and the pole-placement gains grow with its inverse. On a plant of the models' own
-//! order (003's initial model, its gain scaled by the depth) the determinant stays within
+//! order (Rubio & De la Sen's initial model, its gain scaled by the depth) the determinant stays within
 //! 10⁻² of its initial value, yet both designs still diverge after the step: the law places
 //! the poles with an unstable controller pole (R = z − 1.154 for the initial ZOH model, with
 //! the sampled zero at z = −1.035), and the estimates, excited only by the step, pass through
 //! models for which it destabilises the loop. A slower observer (ρ = 0.5, 0.8 with
 //! `MM_RHO`) lowers the peaks on the matched plant (17 → 8.1 → 2.6 kN, ZOH only) but no
-//! design settles after the step. The initial covariance P₀ = p₀·I, "arbitrary" in 003,
+//! design settles after the step. The initial covariance P₀ = p₀·I, "arbitrary" in Rubio & De la Sen,
 //! matters more (`MM_P0`): with p₀ = 100 the first large prediction error after the step
 //! throws the estimate far (θ jumps from the initial model to a₁ = −1.66 in two periods);
 //! with p₀ = 0.01 the ZOH-only design settles the 3 mm segments again and the peaks stay
@@ -48,9 +48,9 @@ const SUB: usize = 40;
 /// The plant in the loop.
 #[derive(Clone, Copy, PartialEq)]
 enum Truth {
-    /// `qloop_plant::milling` (003 eqs. 1-3 at T = 1/n: first order in effect).
+    /// `qloop_plant::milling` (Rubio & De la Sen, eqs. 1-3 at T = 1/n: first order in effect).
     Milling,
-    /// 003's initial model `(−3s + 150)/(s² + 20s + 550)` itself, its gain scaled by the
+    /// Rubio & De la Sen's initial model `(−3s + 150)/(s² + 20s + 550)` itself, its gain scaled by the
     /// depth as b/3 mm: the estimators' structure matches the plant's.
     Matched,
 }
@@ -120,7 +120,7 @@ fn run(p: MultiModelParams, truth: Truth) -> Run {
     out
 }
 
-/// Per segment of 003 Fig. 1 (`qloop_plant::metrics::segment` against 1.2 kN): (overshoot
+/// Per segment of Rubio & De la Sen, Fig. 1 (`qloop_plant::metrics::segment` against 1.2 kN): (overshoot
 /// as a fraction, settled within ±5 % over at least the segment's last 2 s).
 fn segments(r: &Run) -> Vec<(f64, bool)> {
     let mut t0 = 0.0;

@@ -2,14 +2,14 @@
  * Koren & Masory (1981), direct-division formulation: the baseline the paper avoids.
  *
  * Hand-written benchmark baselines for `qloop bench` (not generated). The paper
- * (000_b8cbacf29caa8fe2.txt, an OCR extraction; equations read from its LaTeX, the figures
+ * (Koren & Masory 1981, an OCR extraction; equations read from its LaTeX, the figures
  * are lost) first states the obvious algorithm and then rejects it because "implementation
  * of the algorithm based upon eqs. (2) and (3) requires a direct division, which is a very
  * complicated and slow operation in assembly language":
  *
- *   K_p = F_c / U      (000 eq. 2: the process gain K_h K_s a/n, at steady state)
- *   K_c = K / K_p      (000 eq. 3: controller gain for the desired open-loop gain K)
- *   U(i) = U(i-1) + K_c E(i),  E = F_r - F_c     (002 eq. 8, the ACC integral law)
+ *   K_p = F_c / U      (Koren & Masory 1981, eq. 2: the process gain K_h K_s a/n, at steady state)
+ *   K_c = K / K_p      (Koren & Masory 1981, eq. 3: controller gain for the desired open-loop gain K)
+ *   U(i) = U(i-1) + K_c E(i),  E = F_r - F_c     (Koren's survey, eq. 8, the ACC integral law)
  *
  * Eq. 2 holds only "at steady-state"; read as an estimator it is evaluated every period
  * from the current force F_c(i) and the command U(i-1) that produced it, exactly where the
@@ -45,7 +45,7 @@ extern "C" {
 
 /* ---- Parameters and limits (physical; verified/specs/koren_masory_1981.qloop) ---- */
 #define KOREN_MASORY_1981_DIV_FR 1.5f        /* reference force F_r, kN */
-#define KOREN_MASORY_1981_DIV_K_LOOP 1.25f   /* desired open-loop gain K (000 eq. 3, 11) */
+#define KOREN_MASORY_1981_DIV_K_LOOP 1.25f   /* desired open-loop gain K (Koren & Masory 1981, eq. 3, 11) */
 #define KOREN_MASORY_1981_DIV_F_AIR 0.15f    /* air-cut threshold, kN */
 #define KOREN_MASORY_1981_DIV_FC_LO 0.0f     /* input range of F_c, kN */
 #define KOREN_MASORY_1981_DIV_FC_HI 5.0f

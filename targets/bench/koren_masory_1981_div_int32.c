@@ -1,6 +1,6 @@
 /*
  * Koren & Masory (1981) with direct division, in Q-format integers: the fixed-point
- * baseline of the algorithm the paper avoids (000_b8cbacf29caa8fe2.txt eqs. 2-3: "requires
+ * baseline of the algorithm the paper avoids (Koren & Masory 1981, eqs. 2-3: "requires
  * a direct division, which is a very complicated and slow operation"). Hand-written; see
  * koren_masory_1981_div.h for the derivation, parameters and limits.
  *
@@ -54,7 +54,7 @@ void koren_masory_1981_divi_step(koren_masory_1981_divi_state *self,
     }
     const int16_t u = self->u;
     if (fc > KOREN_MASORY_1981_DIVI_F_AIR) {
-        /* K_p = F_c / U (000 eq. 2): (Q12 << 12) / Q12 = Q12. Both are positive (U never
+        /* K_p = F_c / U (Koren & Masory 1981, eq. 2): (Q12 << 12) / Q12 = Q12. Both are positive (U never
          * leaves its limits), so the division is unsigned: __udivmodsi4, without the sign
          * handling of the signed one. */
         uint32_t kp = ((uint32_t)(uint16_t)fc << 12) / (uint16_t)u;
@@ -63,7 +63,7 @@ void koren_masory_1981_divi_step(koren_masory_1981_divi_state *self,
         } else if (kp > KOREN_MASORY_1981_DIVI_KP_MAX) {
             kp = KOREN_MASORY_1981_DIVI_KP_MAX;
         }
-        /* K_c = K / K_p (000 eq. 3): (Q12 << 12) / Q12 = Q12; K_p > 0 after the clamp. */
+        /* K_c = K / K_p (Koren & Masory 1981, eq. 3): (Q12 << 12) / Q12 = Q12; K_p > 0 after the clamp. */
         uint16_t kc = (uint16_t)(((uint32_t)KOREN_MASORY_1981_DIVI_K_LOOP << 12) / (uint16_t)kp);
         if (kc < KOREN_MASORY_1981_DIVI_KC_MIN) {
             kc = KOREN_MASORY_1981_DIVI_KC_MIN;
@@ -74,7 +74,7 @@ void koren_masory_1981_divi_step(koren_masory_1981_divi_state *self,
         self->kc = (int16_t)kc;
     }
     /* Force error E(i) = F_r - F_c(i), Q12, within [-14336, 6144]. U(i) = U(i-1) + K_c E(i)
-     * (002 eq. 8): a 16x16->32 multiply, floored to Q12 by an arithmetic shift. */
+     * (Koren's survey, eq. 8): a 16x16->32 multiply, floored to Q12 by an arithmetic shift. */
     const int16_t e = (int16_t)(KOREN_MASORY_1981_DIVI_FR - fc);
     int32_t un = (int32_t)u + (((int32_t)self->kc * e) >> 12);
     if (un < KOREN_MASORY_1981_DIVI_U_MIN) {

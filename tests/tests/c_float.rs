@@ -6,7 +6,7 @@
 //!   single-precision error bound derived here from the spec (see [`ErrBound`]), along random
 //!   states and inputs and along the reference's own trajectory;
 //! * the hand-written direct-division controllers in `targets/bench/`
-//!   (Koren & Masory 1981, 000_b8cbacf29caa8fe2.txt eqs. 2-3), in `float` and in Q12 `int32`:
+//!   (Koren & Masory 1981, Koren & Masory (1981), eqs. 2-3), in `float` and in Q12 `int32`:
 //!   a different algorithm from the spec's, so only their steady state on a steady cut is
 //!   compared with the reference's.
 //!
@@ -810,7 +810,7 @@ fn bench_dir() -> PathBuf {
 
 /// Steady cut: a static process, F_c(i) = K_p · U(i−1) (the force read at step i is the
 /// response to the command of the previous step), which is the steady-state relation of
-/// 000 eq. 2 without the servo and sensor lags. With both ACC laws the feed settles where
+/// Koren & Masory (1981), eq. 2 without the servo and sensor lags. With both ACC laws the feed settles where
 /// F_c = F_r, i.e. U = F_r/K_p, and the gain at K/K_p.
 const KP_TRUE: [f64; 6] = [0.4, 0.83, 1.0, 2.4, 3.8, 5.5];
 const STEPS: usize = 600;

@@ -1,5 +1,5 @@
 //! The C outputs of a spec with tables (tests/tables.qloop: `r = recip(d)`, 1/x over [1, 8] in
-//! 56 segments, and `f2 = f2_of(eta)`, 004 eq. 17 over [0, 10] in 40), whose step reads two
+//! 56 segments, and `f2 = f2_of(eta)`, Jenkins & Kurfess, eq. 17 over [0, 10] in 40), whose step reads two
 //! constant arrays per table (`Op::Lookup`) at an index cut from the argument (`Op::Low`):
 //!
 //! * the fixed-point C holds each table's samples and differences as the plan has them

@@ -82,7 +82,7 @@ fn the_loop_holds_each_parts_reference() {
     }
 }
 
-/// The outer layer's effect, as 001's Table 2 shows it for machine settings: starting from a
+/// The outer layer's effect, as Ivester & Danai's Table 2 shows it for machine settings: starting from a
 /// conservative 1 kN, the cycle time falls by more than a quarter over ten parts, and no part
 /// is out of specification (peak force, roughness).
 #[test]

@@ -88,7 +88,7 @@ fn threshold_decisions_are_exact_on_a_sample_of_raw_inputs() {
 }
 
 #[test]
-#[ignore = "acceptance tier (README, Tests)"]
+#[ignore = "acceptance tier (docs/book/src/internals/tests.md)"]
 fn threshold_decisions_are_exact_for_every_raw_input() {
     threshold_decisions_are_exact(1);
 }
@@ -127,7 +127,7 @@ fn clamp_gap_is_in_the_bounds_for_every_raw_input() {
 }
 
 #[test]
-#[ignore = "acceptance tier (README, Tests)"]
+#[ignore = "acceptance tier (docs/book/src/internals/tests.md)"]
 fn clamp_gap_is_in_the_bounds_for_every_raw_input_and_64_state_draws() {
     clamp_gap_is_in_the_bounds(64);
 }

@@ -1,4 +1,4 @@
-//! `docs/EQUATIONS.md` agrees with the code: every file it names exists, every `file::item` it
+//! `docs/book/src/appendix/equations.md` agrees with the code: every file it names exists, every `file::item` it
 //! names is an item of that file (the last path segment is defined there: `fn`, `struct`,
 //! `const`, …, or a spec's `let`/`property`), every `file:line` spec citation is inside the
 //! file, and every generated harness it names is one the seed specs generate.
@@ -26,7 +26,8 @@ const DIRS: [&str; 7] = [
 
 #[test]
 fn every_cited_file_and_item_exists() {
-    let doc = std::fs::read_to_string(root().join("docs/EQUATIONS.md")).expect("docs/EQUATIONS.md");
+    let doc = std::fs::read_to_string(root().join("docs/book/src/appendix/equations.md"))
+        .expect("docs/book/src/appendix/equations.md");
     let mut checked = 0;
     let mut missing = Vec::new();
     for span in code_spans(&doc) {
@@ -86,14 +87,15 @@ fn every_cited_file_and_item_exists() {
     );
     assert!(
         missing.is_empty(),
-        "docs/EQUATIONS.md cites what is not there:\n{}",
+        "docs/book/src/appendix/equations.md cites what is not there:\n{}",
         missing.join("\n")
     );
 }
 
 #[test]
 fn every_cited_harness_is_generated() {
-    let doc = std::fs::read_to_string(root().join("docs/EQUATIONS.md")).expect("docs/EQUATIONS.md");
+    let doc = std::fs::read_to_string(root().join("docs/book/src/appendix/equations.md"))
+        .expect("docs/book/src/appendix/equations.md");
     for span in code_spans(&doc) {
         let Some((module, harness)) = span.split_once("_proofs::") else {
             continue;
@@ -125,4 +127,68 @@ fn defines(text: &str, decl: &str) -> bool {
             .next()
             .is_some_and(|c| c.is_alphanumeric() || c == '_')
     })
+}
+
+/// The summary's counts are the rows': for each paper, the number of rows and of each status
+/// (the last column begins with `implemented`, `partly` or `not yet`), and their totals.
+#[test]
+fn the_summary_counts_the_rows() {
+    let path = "docs/book/src/appendix/equations.md";
+    let doc = std::fs::read_to_string(root().join(path)).expect(path);
+    let (body, summary) = doc
+        .split_once("## Summary")
+        .expect("a `## Summary` section");
+    let statuses = ["implemented", "partly", "not yet"];
+    let cells = |line: &str| -> Vec<String> {
+        line.trim()
+            .trim_matches('|')
+            .split('|')
+            .map(|c| c.trim().to_string())
+            .collect()
+    };
+    let is_row = |line: &str| {
+        line.starts_with("| ") && !line.starts_with("| paper") && !line.starts_with("|---")
+    };
+    // paper -> [rows, implemented, partly, not yet]
+    let mut counted: Vec<(String, [usize; 4])> = Vec::new();
+    for line in body.lines().filter(|l| is_row(l)) {
+        let c = cells(line);
+        let status = c.last().expect("a status");
+        let k = statuses
+            .iter()
+            .position(|s| status.starts_with(s))
+            .unwrap_or_else(|| panic!("{path}: a status that is none of {statuses:?}: {line}"));
+        let at = match counted.iter().position(|(p, _)| *p == c[0]) {
+            Some(i) => i,
+            None => {
+                counted.push((c[0].clone(), [0; 4]));
+                counted.len() - 1
+            }
+        };
+        counted[at].1[0] += 1;
+        counted[at].1[k + 1] += 1;
+    }
+    let mut all = [0usize; 4];
+    for (_, n) in &counted {
+        for (a, b) in all.iter_mut().zip(n) {
+            *a += b;
+        }
+    }
+    counted.push(("all".to_string(), all));
+    let stated: Vec<(String, [usize; 4])> = summary
+        .lines()
+        .filter(|l| is_row(l))
+        .map(|line| {
+            let c = cells(line);
+            let n: Vec<usize> = c[1..5]
+                .iter()
+                .map(|v| v.parse().unwrap_or_else(|_| panic!("{path}: {line}")))
+                .collect();
+            (c[0].clone(), [n[0], n[1], n[2], n[3]])
+        })
+        .collect();
+    assert_eq!(
+        stated, counted,
+        "{path}: the summary (left) does not count the rows (right)"
+    );
 }

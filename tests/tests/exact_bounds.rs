@@ -94,7 +94,7 @@ fn printed_bounds_hold_against_exact_arithmetic_on_random_specs() {
 }
 
 #[test]
-#[ignore = "acceptance tier (README, Tests)"]
+#[ignore = "acceptance tier (docs/book/src/internals/tests.md)"]
 fn printed_bounds_hold_against_exact_arithmetic_on_10000_random_specs() {
     let seed = run_seed("printed_bounds_hold_against_exact_arithmetic_on_10000_random_specs");
     random_specs(seed, ACCEPTANCE_SPECS);

@@ -63,7 +63,7 @@ fn avr_firmware_in_simavr_matches_the_host_build() {
 /// the six seeds the script runs (not the multi-model controller: `default-features = false`):
 /// the acceptance tier's.
 #[test]
-#[ignore = "acceptance tier (README, Tests)"]
+#[ignore = "acceptance tier (docs/book/src/internals/tests.md)"]
 fn cortex_m_firmware_in_qemu_matches_the_host_run() {
     let have = tool("qemu-system-arm").is_some()
         && rust_target("thumbv6m-none-eabi")

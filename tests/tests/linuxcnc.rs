@@ -510,7 +510,7 @@ fn the_safe_component_has_the_feed_hold_and_fault_pins() {
 
 /// The halrun half of the test above, with real time: the acceptance tier's.
 #[test]
-#[ignore = "acceptance tier (README, Tests)"]
+#[ignore = "acceptance tier (docs/book/src/internals/tests.md)"]
 fn halrun_sets_feed_hold_and_fault_on_the_safe_component() {
     let c = comp("koren_masory_safe");
     if tool("halcompile").is_none() || tool("halrun").is_none() || !can_install() {

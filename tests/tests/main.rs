@@ -1,7 +1,7 @@
 //! The workspace's integration, snapshot and paper-reproduction tests, one test binary (each
 //! module was a binary of its own; one link and one process for all of them, so that a large
 //! generated text is generated once per run and `cargo test` runs every module in parallel).
-//! See the README's "Tests" for what each tier holds.
+//! See the book's "Tests and their tiers" (docs/book/src/internals/tests.md) for what each tier holds.
 
 mod c_float;
 mod c_output;

@@ -1,5 +1,5 @@
 //! The assembled multi-model controller of issue 17 (verified/specs/milling_multimodel.qloop; Rubio &
-//! De la Sen, 003_780323f84df40eb0.txt): it compiles, with one estimator stack of six
+//! De la Sen, Rubio & De la Sen): it compiles, with one estimator stack of six
 //! five-parameter models and their invariants unrolled from `for` loops, and its step has no
 //! division. (Its closed-loop runs are in `paper_multimodel.rs`.)
 
@@ -13,7 +13,7 @@ fn plan() -> qloop::Plan {
 
 // Compiles the multi-model controller (14,000 values): the acceptance tier's, with its other checks.
 #[test]
-#[ignore = "acceptance tier (README, Tests)"]
+#[ignore = "acceptance tier (docs/book/src/internals/tests.md)"]
 fn the_assembled_controller_compiles_with_every_invariant_unrolled() {
     let plan = plan();
     let prog = &plan.prog;

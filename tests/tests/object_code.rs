@@ -18,7 +18,7 @@
 //!   riscv32imc): each `step` has no division, and on ARMv6-M and RV32I (where a re-formed
 //!   multiply is a library call) exactly as many multiply instructions or calls as the plan
 //!   has multiplies. On thumbv7em and riscv32imc LLVM may re-form a network into a 1-2 cycle
-//!   `mul`; the cost model accepts that (see the README, "Object code").
+//!   `mul`; the cost model accepts that (see the book, "Targets, C output and object code").
 
 use qloop::report::op_counts;
 use qloop::Plan;
@@ -352,7 +352,7 @@ fn qloop_verified_declares_no_std() {
 /// Builds `qloop-verified` in release for four bare-metal targets (every seed in one crate, so
 /// one build per target): the acceptance tier's.
 #[test]
-#[ignore = "acceptance tier (README, Tests)"]
+#[ignore = "acceptance tier (docs/book/src/internals/tests.md)"]
 fn rust_step_has_no_division_and_no_unplanned_library_multiply() {
     let Some(od) = llvm_objdump() else { return };
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");

@@ -1,5 +1,5 @@
 //! Reproduces the geometric adaptive control (GAC) of the surface finish in Ulsoy & Koren's
-//! survey (002_39e44efc2e4f2eb6.txt, eq. 29 and the text on Figs. 10-11) on the finishing
+//! survey (Koren's survey, eq. 29 and the text on Figs. 10-11) on the finishing
 //! plant, running the *compiled* `verified/specs/gac_surface_finish.qloop` of
 //! `qloop-verified` beside its f64 reference.
 //!

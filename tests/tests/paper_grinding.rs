@@ -1,5 +1,5 @@
 //! Reproduces Jenkins & Kurfess, "Adaptive Pole-Zero Cancellation in Grinding Force Control,
-//! Part II" (004_9e0133852f31a0cf.txt) on the grinding plant, running the *compiled*
+//! Part II" (Jenkins & Kurfess) on the grinding plant, running the *compiled*
 //! fixed-gain PI of `qloop-verified` (`verified/specs/grinding_pi.qloop`) and its f64
 //! reference: the ZOH plant of eq. 7, the fixed-gain design's rise time and overshoot
 //! (text on Figs. 4-7), the loop under a varying process (eqs. 11-12), and fixed vs f64.
@@ -173,7 +173,7 @@ fn excess(tr: &Trace, col: &str, t0: f64) -> f64 {
     (k0..x.len()).map(|k| x[k] - r[k]).fold(f64::MIN, f64::max)
 }
 
-/// 004 eq. 7: the ZOH equivalent of the position loop 203/(s + 224) at the force-loop period
+/// Jenkins & Kurfess, eq. 7: the ZOH equivalent of the position loop 203/(s + 224) at the force-loop period
 /// is 0.3543/(z − 0.6091). At the paper's own period, 5 servo cycles of 442.7 µs = 2.2135 ms
 /// (text above eq. 6), both coefficients agree to 4 digits. At the rounded "2.214-ms" the
 /// pole is 0.60900, i.e. 0.6090 to 4 digits, which is how we know the paper used 2.2135 ms.

@@ -1,5 +1,5 @@
 //! Jenkins & Kurfess, "Adaptive Pole-Zero Cancellation in Grinding Force Control, Part II"
-//! (004_9e0133852f31a0cf.txt), the adaptive controller of eqs. 16-22: the *compiled*
+//! (Jenkins & Kurfess), the adaptive controller of eqs. 16-22: the *compiled*
 //! `qloop_verified::grinding_adaptive_pzc` (`verified/specs/grinding_adaptive_pzc.qloop`) and its
 //! f64 reference on the grinding plant, beside the fixed-gain PI of `grinding_pi.qloop`, on the
 //! plant's `force-step`, `eta-varying` and `noise` scenarios, with the paper's Table 1
@@ -345,6 +345,41 @@ fn cancelled_loop_is_type_0_and_settles_at_the_analytic_level() {
     }
 }
 
+/// The type-0 verdict does not depend on the gain. Eq. 21's loop K/(z − C_o) closed around a
+/// unit feedback is y(k+1) = C_o·y(k) + K·(F_r − y(k)): it settles at F_r·K/(1 − C_o + K),
+/// which grows with K. It has no overshoot only while its root C_o − K is not negative
+/// (K ≤ C_o: at most F_r·C_o, 15.2 N at 25 N) and is stable only while |C_o − K| < 1
+/// (K < 1 + C_o: below F_r·(1 + C_o)/2, 20.1 N). Table 1's adaptive means, 24.78-25.92 N at
+/// 25 N, lie above both for every K: they cannot come from eqs. 19-22 as printed. Checked
+/// against the recursion itself over a fine grid of K.
+#[test]
+fn no_gain_brings_the_cancelled_loop_to_the_papers_force() {
+    let (co, fr) = (c0(), 25.0);
+    let (no_overshoot, stable) = (fr * co, fr * (1.0 + co) / 2.0);
+    eprintln!("C_o = {co:.4}: without overshoot at most {no_overshoot:.2} N, stable below {stable:.2} N at {fr} N");
+    assert!((no_overshoot - 15.2).abs() < 0.05 && (stable - 20.1).abs() < 0.05);
+    let mut best_monotone = 0.0f64;
+    let mut best_stable = 0.0f64;
+    for i in 1..400 {
+        let k = (1.0 + co) * i as f64 / 400.0;
+        let (mut y, mut peak) = (0.0f64, 0.0f64);
+        for _ in 0..200_000 {
+            y = co * y + k * (fr - y);
+            peak = peak.max(y);
+        }
+        let settled = fr * k / (1.0 - co + k);
+        assert!((y - settled).abs() < 1e-6, "K = {k}: {y} vs {settled}");
+        best_stable = best_stable.max(y);
+        if peak <= y + 1e-9 {
+            best_monotone = best_monotone.max(y);
+        }
+    }
+    assert!(best_monotone <= no_overshoot + 1e-9 && best_stable < stable);
+    for (m, _, a) in TABLE_1 {
+        assert!(a[0] > stable + 4.0, "{m}: {}", a[0]);
+    }
+}
+
 /// The estimator's fixed point is the plant's own zero: on the noise-free runs, wherever η
 /// has been constant for 0.5 s, the mean of 1 − â equals 1 − e^{−ηT} of the plant (2 1/s,
 /// and 0.5 1/s on `eta-varying` after the η step), within the error budget of its fixed
@@ -465,7 +500,7 @@ fn table_1_statistics_fixed_gain_and_adaptive() {
             s[0], s[1], s[2], s[3], s[4]
         )
     };
-    eprintln!("Table 1 (004), 4.5 s records at 25 N:\n{hdr}");
+    eprintln!("Table 1 (Jenkins & Kurfess), 4.5 s records at 25 N:\n{hdr}");
     for (m, f, a) in TABLE_1 {
         eprintln!("{}", row(&format!("paper fixed {m}"), f));
         eprintln!("{}", row(&format!("paper adaptive {m}"), a));

@@ -1,18 +1,18 @@
 //! The Koren & Masory (1981) adaptive ACC on the milling plant of Rubio & De la Sen
-//! (003_780323f84df40eb0.txt): the *compiled* `milling_acc` controller of `qloop-verified` and
-//! its f64 reference, through the work-piece profile of 003 Fig. 1 (b = 3 → 5 → 3 → 2 mm, see
-//! `qloop_plant::milling::FIG1_PROFILE`) at F_r = 1.2 kN, T = 0.0839 s (003 Sec. V).
+//! (Rubio & De la Sen): the *compiled* `milling_acc` controller of `qloop-verified` and
+//! its f64 reference, through the work-piece profile of Rubio & De la Sen, Fig. 1 (b = 3 → 5 → 3 → 2 mm, see
+//! `qloop_plant::milling::FIG1_PROFILE`) at F_r = 1.2 kN, T = 0.0839 s (Rubio & De la Sen, Sec. V).
 //!
 //! Truths the tests use, independent of the controller: the process gain
-//! K_p = K_c·a·b/(N·n) of 003 eq. 3 (so the feed that holds F_r is F_r/K_p), the instant force
-//! jump b₂/b₁ at a depth step, and 003's reference model G_m(s) = 98.62/(s² + 15.89s + 98.62).
+//! K_p = K_c·a·b/(N·n) of Rubio & De la Sen, eq. 3 (so the feed that holds F_r is F_r/K_p), the instant force
+//! jump b₂/b₁ at a depth step, and Rubio & De la Sen's reference model G_m(s) = 98.62/(s² + 15.89s + 98.62).
 
 use qloop_plant::milling::{scenario_named, scenarios, Milling, MillingParams, FIG1_PROFILE};
 use qloop_plant::{
     fixed_controller, metrics, reference_controller, run, Metrics, Plant, RunConfig, Trace,
 };
 
-/// F_r (003 Sec. V), kN.
+/// F_r (Rubio & De la Sen, Sec. V), kN.
 const FR: f64 = 1.2;
 /// The spec's loop gain K = K_c·K_m (`K_LOOP` in milling_acc.qloop).
 const K_LOOP: f64 = 0.5;
@@ -82,7 +82,7 @@ fn fig1_segments() -> Vec<(f64, f64, f64)> {
         .collect()
 }
 
-/// 5% settling time of 003's reference model G_m(s) = ω²/(s² + 2ζωs + ω²) (Sec. V:
+/// 5% settling time of Rubio & De la Sen's reference model G_m(s) = ω²/(s² + 2ζωs + ω²) (Sec. V:
 /// ω² = 98.62, 2ζω = 15.89), from its closed-form unit-step response.
 fn reference_model_settling() -> f64 {
     let w = 98.62f64.sqrt();
@@ -97,10 +97,10 @@ fn reference_model_settling() -> f64 {
     last + 1e-3
 }
 
-/// 003 Sec. V: "the steady-state force tracks the reference force which is set to 1.2 KN,
+/// Rubio & De la Sen, Sec. V: "the steady-state force tracks the reference force which is set to 1.2 KN,
 /// except for the peaks appreciated when the axial depth of cut ... is suddenly altered".
 /// After each depth step of Fig. 1 the adaptive loop must (a) enter and stay in the ±5% band
-/// within twice the 5% settling time of 003's reference model G_m (the integral loop's poles
+/// within twice the 5% settling time of Rubio & De la Sen's reference model G_m (the integral loop's poles
 /// cannot be faster than √α = e^{-T/2τ_c} = 0.61 per period, G_m's are 0.51; a depth step
 /// starts from up to 67% error), and (b) hold the *true* force (the plant's, not the sensor
 /// reading) at F_r within 1.5 N over the last 20% of the segment: one ADC step (1.22 N, the
@@ -149,7 +149,7 @@ fn force_settles_to_1_2_kn_after_each_fig1_depth_step() {
     }
 }
 
-/// 003 Sec. V: "there are abruptly and oscillating overshoots in the output when the axial
+/// Rubio & De la Sen, Sec. V: "there are abruptly and oscillating overshoots in the output when the axial
 /// depth of cut changes suddenly ... due to the intrinsic structure of the closed-loop". The
 /// first sample after a step, before the controller can react, reads the settled force times
 /// b₂/b₁ (eq. 3: K_p ∝ b): 2.0 kN at 3 → 5 mm, 0.72 kN at 5 → 3 and 0.8 kN at 3 → 2, within
@@ -174,9 +174,9 @@ fn each_depth_step_gives_the_papers_peak() {
     assert!((up.overshoot - 2.0 / 3.0).abs() < 0.01, "{up:?}");
 }
 
-/// The 1981 estimator (000 eqs. 8-9) recovers 003's process gain K_p = K_c·a·b/(N·n)
+/// The 1981 estimator (Koren & Masory 1981, eqs. 8-9) recovers Rubio & De la Sen's process gain K_p = K_c·a·b/(N·n)
 /// (eq. 3) at every depth of Fig. 1, because the milling force is linear in the feed; the
-/// gain loop (000 eqs. 12-13) then holds K_c·K_m at K = 1/2. Tolerance: 1% of K_p (the
+/// gain loop (Koren & Masory 1981, eqs. 12-13) then holds K_c·K_m at K = 1/2. Tolerance: 1% of K_p (the
 /// force tolerance of the settling test is 0.13%).
 #[test]
 fn estimator_recovers_the_process_gain_of_eq_3() {

@@ -1,10 +1,10 @@
 //! Division-free model-following pole placement for one ZOH estimate (tests/pole_placement.qloop)
-//! and one β-FROH estimate (tests/pole_placement_froh.qloop, 4 × 4), 003_780323f84df40eb0.txt
+//! and one β-FROH estimate (tests/pole_placement_froh.qloop, 4 × 4), Rubio & De la Sen
 //! eqs. 7-9, the per-model part of issue 17's controller:
 //!
 //! * proof: every obligation is proved by both solvers, among them the invariant that the
 //!   stored law places the poles of the model it was solved for (each coefficient within TOL,
-//!   exact arithmetic) and 003's claim for any plant within DELTA of that model;
+//!   exact arithmetic) and Rubio & De la Sen's claim for any plant within DELTA of that model;
 //! * the property can fail: with its bound cut below what the law's coefficients allow, the
 //!   prover refutes it with a replayed counterexample;
 //! * meaning: for random estimates the compiled law is the Sylvester system's solution (f64
@@ -48,7 +48,7 @@ fn the_placement_invariant_and_claim_are_proved() {
 
 // The ZOH placement is proved in the default run; its β-FROH twin in the acceptance tier.
 #[test]
-#[ignore = "acceptance tier (README, Tests)"]
+#[ignore = "acceptance tier (docs/book/src/internals/tests.md)"]
 fn the_froh_placement_invariant_and_claim_are_proved() {
     qloop_tests::assert_proved(
         &froh_plan(),

@@ -281,7 +281,7 @@ fn every_accepted_spec_compiles_and_runs_bit_exact_in_rust_and_c() {
 }
 
 #[test]
-#[ignore = "acceptance tier (README, Tests)"]
+#[ignore = "acceptance tier (docs/book/src/internals/tests.md)"]
 fn every_accepted_spec_compiles_and_runs_bit_exact_in_rust_and_c_on_200_random_specs() {
     compiles_and_runs_bit_exact(
         "every_accepted_spec_compiles_and_runs_bit_exact_in_rust_and_c_on_200_random_specs",

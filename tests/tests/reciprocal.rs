@@ -49,7 +49,7 @@ fn the_printed_bounds_hold_over_the_whole_input_range() {
 }
 
 #[test]
-#[ignore = "acceptance tier (README, Tests)"]
+#[ignore = "acceptance tier (docs/book/src/internals/tests.md)"]
 fn the_printed_bounds_hold_over_the_whole_input_range_finely() {
     printed_bounds_hold(4093);
 }
@@ -118,7 +118,7 @@ fn the_error_column_holds_against_exact_arithmetic() {
 }
 
 #[test]
-#[ignore = "acceptance tier (README, Tests)"]
+#[ignore = "acceptance tier (docs/book/src/internals/tests.md)"]
 fn the_error_column_holds_against_exact_arithmetic_finely() {
     error_column_holds(65521);
 }

@@ -1,6 +1,6 @@
 //! Recursive least squares of four parameters (tests/rls4.qloop), division-free, with a
 //! covariance whose positive definiteness is proved: the estimator of one ZOH model of
-//! issue 17's multi-model controller (003_780323f84df40eb0.txt, eq. 11), the n = 4 case of
+//! issue 17's multi-model controller (Rubio & De la Sen, eq. 11), the n = 4 case of
 //! tests/rls3.rs, checked the same way:
 //!
 //! * proof: every obligation, the four leading principal minors of P among them (Sylvester's
@@ -27,12 +27,12 @@ fn plan() -> Plan {
 const LAMBDA_INV: f64 = 1.0625;
 /// P0 of the spec.
 const P0: f64 = 2.0;
-/// The parameters the data come from: 003's initial ZOH model (a1, a2, b1, b2), scaled.
+/// The parameters the data come from: Rubio & De la Sen's initial ZOH model (a1, a2, b1, b2), scaled.
 const THETA: [f64; 4] = [0.1793, 0.1867, 1.4644, 1.5161];
 
 // Proofs of a 4-parameter estimator (rls3.rs proves the 3-parameter one in the default run).
 #[test]
-#[ignore = "acceptance tier (README, Tests)"]
+#[ignore = "acceptance tier (docs/book/src/internals/tests.md)"]
 fn every_obligation_and_the_positive_definiteness_are_proved_by_both_solvers() {
     let r = qloop_tests::assert_proved(&plan(), 60_000, &[]);
     for inv in [

@@ -1,6 +1,6 @@
 //! Recursive least squares of five parameters (tests/rls5.qloop), division-free, with a
 //! covariance whose positive definiteness is proved: the estimator of one β-FROH model
-//! (β ≠ 0) of issue 17's multi-model controller (003_780323f84df40eb0.txt, eq. 11), the n = 5
+//! (β ≠ 0) of issue 17's multi-model controller (Rubio & De la Sen, eq. 11), the n = 5
 //! case of tests/rls4.rs, checked the same way, and the `det` built-in it rests on:
 //!
 //! * `det`: the expansion (Leibniz, products merged) equals the determinant by cofactors,
@@ -29,7 +29,7 @@ fn plan() -> Plan {
 const LAMBDA_INV: f64 = 1.0625;
 /// P0 of the spec.
 const P0: f64 = 1.0;
-/// The parameters the data come from: a β = 0.5 model of 003's initial guess
+/// The parameters the data come from: a β = 0.5 model of Rubio & De la Sen's initial guess
 /// (a1, a2, b1, b2, b3), its numerator scaled by 6.
 const THETA: [f64; 5] = [0.1793, 0.1867, 1.2327, 1.3513, -0.3486];
 
@@ -94,7 +94,7 @@ fn det_expands_to_the_determinant() {
 
 // Proofs of a 5-parameter estimator (rls3.rs proves the 3-parameter one in the default run).
 #[test]
-#[ignore = "acceptance tier (README, Tests)"]
+#[ignore = "acceptance tier (docs/book/src/internals/tests.md)"]
 fn every_obligation_and_the_positive_definiteness_are_proved_by_both_solvers() {
     let r = qloop_tests::assert_proved(&plan(), 60_000, &[]);
     for inv in [

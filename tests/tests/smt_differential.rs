@@ -212,7 +212,7 @@ fn acc_fixed_gain_proves() {
 // codegen/tests/prove.rs proves it through the CLI in the default run; this library-level
 // proof, each solver on its own, is the acceptance tier's.
 #[test]
-#[ignore = "acceptance tier (README, Tests)"]
+#[ignore = "acceptance tier (docs/book/src/internals/tests.md)"]
 fn koren_masory_1981_proves() {
     proves_with_both_solvers("koren_masory_1981");
 }

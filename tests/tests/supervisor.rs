@@ -1,7 +1,7 @@
-//! The switching supervisor of 003 Sec. IV.B (tests/supervisor.qloop), the integer part of
+//! The switching supervisor of Rubio & De la Sen, Sec. IV.B (tests/supervisor.qloop), the integer part of
 //! issue 17's multi-model controller: its residence-time properties are proved by both
 //! solvers on the generated code, and the compiled supervisor makes the same decisions as an
-//! independent model of 003's rule (window sums in exact integers, argmin, residence time)
+//! independent model of Rubio & De la Sen's rule (window sums in exact integers, argmin, residence time)
 //! over long random runs, in which no two switches are closer than N_R periods.
 
 use fixed::types::extra::U24;
@@ -31,7 +31,7 @@ fn residence_time_and_valid_index_are_proved() {
     );
 }
 
-/// 003's rule, written independently: J_l = Σ of the last M squared errors (raw integers,
+/// Rubio & De la Sen's rule, written independently: J_l = Σ of the last M squared errors (raw integers,
 /// exact), best = the lowest index of the smallest J, switch when N_R periods have passed.
 struct Model {
     hist: Vec<VecDeque<i64>>,

@@ -9,7 +9,7 @@
 //! * the generated fixed-point step equals qloop's plan interpreter bit for bit, for any raw
 //!   input (in range or not);
 //! * the output's printed error bound holds against the function itself: exactly (rationals)
-//!   for 1/x, and within the f64 evaluation of `exp` for f2(η) of 004 eq. 17;
+//!   for 1/x, and within the f64 evaluation of `exp` for f2(η) of Jenkins & Kurfess, eq. 17;
 //! * the interpolation bound (curvature) holds against the analytic worst case of 1/x on each
 //!   segment, `(√b − √a)²/(ab)`, and is within 25 % of it;
 //! * the claimed error 0.002 of `recip` is refuted, at the sampled point next to the analytic

@@ -1,5 +1,5 @@
 //! The reciprocal tracker `recip_track(r, x, G);` (the 1981 division-free loop,
-//! 000_b8cbacf29caa8fe2.txt eqs. 12-13 with K = 1): its generated contraction property is
+//! Koren & Masory (1981), eqs. 12-13 with K = 1): its generated contraction property is
 //! proved by both solvers on the generated code; the compiled tracker converges to 1/x as the
 //! geometric series of that property says; and the checker refuses a gain that does not
 //! contract, a range that does not hold 1/x, an `x` assigned both before and after the

@@ -2,7 +2,7 @@
 //! written by `qloop tune`) meets its goals over the sweep envelope of the turning plant, run
 //! as the *compiled* `qloop-verified` module: every draw of the plant's parameters (cutting
 //! force exponent u ∈ [0.70, 0.85], specific force K_s ±30 %, servo lag, sensor gain) in the
-//! depth-steps scenario (000 Fig. 5) stays stable, does not ring, overshoots the reference by
+//! depth-steps scenario (Koren & Masory 1981, Fig. 5) stays stable, does not ring, overshoots the reference by
 //! at most 20 % after first reaching it, and settles within ±5 % in at most 3 s after every
 //! depth step. The draws are not the tuner's (another seed, four times as many), and the
 //! controller is the macro-compiled code, not the tuner's interpreter.

@@ -2,23 +2,23 @@
 //! `controller!` macro. `#![no_std]`: the fixed-point modules use only integer arithmetic.
 //!
 //! * [`koren_masory_1981`]: the adaptive ACC of Koren & Masory (1981), process estimator
-//!   (000_b8cbacf29caa8fe2.txt eqs. 8-9) and variable-gain loop (eqs. 12-13).
+//!   (Koren & Masory 1981, eqs. 8-9) and variable-gain loop (eqs. 12-13).
 //! * [`koren_masory_tuned`]: the same controller with the loop gain K = 0.2 that `qloop tune`
 //!   chose on the turning plant (`specs/koren_masory_tuned.qloop`, written by the tuner).
 //! * [`koren_masory_safe`]: the tuned controller with qloop's machining safety rules
 //!   (`use feed_safety;`: air-cut feed, asymmetric back-off, FMAX, FMIN, overload and
 //!   unknown-load holds, the latched feed hold), each rule's properties proved on the composed
 //!   step.
-//! * [`acc_fixed_gain`]: conventional ACC with a fixed gain (002_39e44efc2e4f2eb6.txt eqs. 6-9).
+//! * [`acc_fixed_gain`]: conventional ACC with a fixed gain (Koren's survey, eqs. 6-9).
 //! * [`grinding_pi`]: the fixed-gain PI grinding force controller of Jenkins & Kurfess
-//!   (004_9e0133852f31a0cf.txt eqs. 3, 5, 8).
+//!   (Jenkins & Kurfess, eqs. 3, 5, 8).
 //! * [`milling_acc`]: the same 1981 adaptive ACC retuned for the milling process of
-//!   003_780323f84df40eb0.txt (eqs. 1-3; T = 0.0839 s, F_r = 1.2 kN).
+//!   Rubio & De la Sen (eqs. 1-3; T = 0.0839 s, F_r = 1.2 kN).
 //! * [`gac_surface_finish`]: geometric adaptive control of the surface finish, one step per
-//!   part: recursive least squares of 002_39e44efc2e4f2eb6.txt eq. 29 and a Newton step on
+//!   part: recursive least squares of Koren's survey, eq. 29 and a Newton step on
 //!   the feed, both division-free (`newton_recip`).
 //! * [`milling_multimodel`]: the multi-model adaptive controller of Rubio & De la Sen
-//!   (003_780323f84df40eb0.txt eqs. 4-11 and its switching rule): seven recursive
+//!   (Rubio & De la Sen, eqs. 4-11 and its switching rule): seven recursive
 //!   least-squares estimators on β-FROH discretisations, a model-following pole-placement law
 //!   per estimate (the Diophantine equation solved by Cramer's rule with a division-free
 //!   reciprocal), and a supervisor that switches to the best predictor after a residence
@@ -32,7 +32,7 @@
 //! --tests -p qloop-verified`, bolero property tests under `cargo test`. They are generated only
 //! under `cfg(any(test, kani))`, never for a firmware, doc or package build; the multi-model
 //! spec's (27 MB of Rust) only under `cfg(kani)` and in the acceptance tier's test target
-//! `multimodel_harnesses` (README, "Tests").
+//! `multimodel_harnesses` (the book's "Tests and their tiers").
 #![no_std]
 
 /// One seed spec: its fixed-point module, its f64 reference and, under `cargo test` and Kani

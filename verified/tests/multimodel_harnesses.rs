@@ -2,7 +2,7 @@
 //! as bolero property tests. Its harness module is 27 MB of Rust, so it is a test target of its
 //! own with `test = false`: `cargo test --workspace` (the default tier) does not build it, and
 //! the acceptance tier runs it (`.ci/run` names it with `--test multimodel_harnesses`;
-//! README, "Tests"). Under Kani the same module is part
+//! the book's "Tests and their tiers"). Under Kani the same module is part
 //! of the library (`src/lib.rs`), where the stubs can reach the step's crate-private products.
 #![cfg(not(kani))]
 

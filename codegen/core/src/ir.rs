@@ -155,7 +155,7 @@ impl Table {
 }
 
 /// A reciprocal tracker `recip_track(r, x, G);` (see `check::track`): the state `r` follows
-/// `1/x` by `r ← r + G·(1 − x·r)`, the division-free loop of 000_b8cbacf29caa8fe2.txt
+/// `1/x` by `r ← r + G·(1 − x·r)`, the division-free loop of Koren & Masory (1981)
 /// eqs. 12-13.
 #[derive(Clone, Debug)]
 pub struct Track {

@@ -1,4 +1,4 @@
-//! `qloop aco`: RCB₂ (001) above the loops, on the host. See the crate `qloop-aco`.
+//! `qloop aco`: RCB₂ (Ivester & Danai) above the loops, on the host. See the crate `qloop-aco`.
 
 use super::args::{AcoArgs, AcoStudy};
 use super::demo::builtin;
@@ -18,7 +18,7 @@ fn check(o: &AcoArgs) -> CliResult {
     if !(0.0..=1.0).contains(&o.c) {
         return Err(CliError::Input {
             msg: format!("--c {} is outside [0, 1]", o.c),
-            help: Some("c is 001 eq. 13's confidence level: 0 never tightens, 1 removes the whole estimated slack in one cycle".into()),
+            help: Some("c is the confidence level of Ivester & Danai, eq. 13: 0 never tightens, 1 removes the whole estimated slack in one cycle".into()),
         });
     }
     for (name, v, max) in [
@@ -104,7 +104,7 @@ pub fn run(o: &AcoArgs) -> CliResult {
     Ok(())
 }
 
-/// `qloop aco bendix`: the optimum of 002's index for three β on the example cut.
+/// `qloop aco bendix`: the optimum of the survey's index for three β on the example cut.
 fn run_bendix(o: &AcoArgs) -> CliResult {
     let (m, e) = (bendix::EXAMPLE, bendix::EXAMPLE_ECONOMICS);
     let text = report::bendix_table(&m, &e);

@@ -220,7 +220,7 @@ pub enum Cmd {
         #[arg(long, default_value = "rv32i")]
         target: String,
     },
-    /// Run check, gen, a closed-loop simulation (turning, depth steps: 000 Fig. 5) and prove
+    /// Run check, gen, a closed-loop simulation (turning, depth steps: Koren & Masory (1981), Fig. 5) and prove
     /// on the built-in Koren–Masory (1981) spec; write to ./qloop-demo/.
     ///
     /// The proofs need z3 and/or cvc5 (skipped with a note if neither is installed).
@@ -261,8 +261,8 @@ pub enum Cmd {
     /// Run every Kani harness of a crate one at a time, each with a time limit, and print a
     /// table: harness, verdict, checks, seconds.
     ///
-    /// Needs `cargo kani` (README, "Kani harnesses", says how to build it where `cargo kani
-    /// setup` cannot download). Run it in the workspace. Exit 0 only if every harness is
+    /// Needs `cargo kani` (the book's "Kani harnesses", `docs/book/src/reference/kani.md`, says how
+    /// to build it where `cargo kani setup` cannot download). Run it in the workspace. Exit 0 only if every harness is
     /// SUCCESSFUL; 1 if one fails, times out or does not compile.
     Kani {
         /// The package whose test harnesses to run.
@@ -288,7 +288,7 @@ pub enum Cmd {
         #[arg(long, default_value_t = 300, hide = true)]
         grace_secs: u64,
     },
-    /// Discretise a continuous transfer function under a β fractional-order hold (003 eqs.
+    /// Discretise a continuous transfer function under a β fractional-order hold (Rubio & De la Sen, eqs.
     /// 4-5; β = 0 is the ZOH, β = 1 the causal FOH), and print the discrete coefficients as
     /// a difference equation and as `const` lines to paste into a spec.
     #[command(allow_negative_numbers = true)]
@@ -312,7 +312,7 @@ pub enum Cmd {
         /// Sampling period in seconds.
         #[arg(long)]
         period: f64,
-        /// Correcting gains β in [-1, 1], comma-separated; `paper` for 003's set
+        /// Correcting gains β in [-1, 1], comma-separated; `paper` for Rubio & De la Sen's set
         /// {-0.5, -0.3, 0, 0.3, 0.5, 0.8, 1}.
         #[arg(long, default_value = "0", allow_hyphen_values = true)]
         beta: String,
@@ -321,11 +321,11 @@ pub enum Cmd {
         name: String,
     },
     /// Optimisation above the loops, on the host in f64: RCB2, the cycle-to-cycle constraint
-    /// bounding of 001 (Ivester & Danai), on its turning model (reconstructed).
+    /// bounding of Ivester & Danai, on its turning model (reconstructed).
     ///
-    /// Runs one scenario (10 % model bias, noise in [0.9, 1.1]) and prints it beside 001's
+    /// Runs one scenario (10 % model bias, noise in [0.9, 1.1]) and prints it beside Ivester & Danai's
     /// Table 2, then runs a seeded study of confidence levels 0.1, 0.5 and 0.9 against the
-    /// nominal optimiser without buffers (001, Figs. 5 and 6). Writes the table, CSV files and
+    /// nominal optimiser without buffers (Ivester & Danai, Figs. 5 and 6). Writes the table, CSV files and
     /// plots to the output directory.
     Aco(AcoArgs),
     /// List the built-in cost-model targets.
@@ -347,14 +347,14 @@ pub enum Cmd {
 /// The options of `qloop aco`.
 #[derive(Args)]
 pub struct AcoArgs {
-    /// `rcb2`: 001's RCB2 (the default); `bendix`: 002's Bendix ACO index (eqs. 1-3)
+    /// `rcb2`: Ivester & Danai's RCB2 (the default); `bendix`: the survey's Bendix ACO index (eqs. 1-3)
     /// maximised over feedrate and spindle speed for beta = 0, 0.5 and 1 on an example
     /// milling cut; `cascade`: RCB2 sets the force reference of the generated
     /// Koren-Masory loop for each of `--cycles` parts, each part cut in closed loop on
     /// the turning plant (needs cargo, like `sim`; uses `--c` and `--seed`).
     #[arg(value_enum, default_value = "rcb2")]
     pub study: AcoStudy,
-    /// Confidence level c of 001 eq. 13 for both constraints, in [0, 1], of the printed
+    /// Confidence level c of Ivester & Danai, eq. 13 for both constraints, in [0, 1], of the printed
     /// run and the cascade (the study always compares 0.1, 0.5 and 0.9).
     #[arg(long, default_value_t = 0.5)]
     pub c: f64,
@@ -378,9 +378,9 @@ pub struct AcoArgs {
 /// `qloop aco STUDY`.
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum AcoStudy {
-    /// RCB2 (001).
+    /// RCB2 (Ivester & Danai).
     Rcb2,
-    /// The Bendix ACO index (002 eqs. 1-3).
+    /// The Bendix ACO index (Koren's survey, eqs. 1-3).
     Bendix,
     /// RCB2 choosing the force reference of the generated 1981 loop per part (issue 19).
     Cascade,

@@ -1,11 +1,11 @@
 //! `qloop c2d`: a continuous transfer function discretised under a β fractional-order hold
-//! (003_780323f84df40eb0.txt, eqs. 4–5; `qloop_plant::froh`), printed as a difference
+//! (Rubio & De la Sen, eqs. 4–5; `qloop_plant::froh`), printed as a difference
 //! equation and as `const` lines for a spec.
 
 use super::error::{CliError, CliResult};
 use qloop_plant::froh::{froh, ContinuousTf, DiscreteTf, PAPER_BETAS};
 
-/// Parses `--beta`: a comma-separated list, or `paper` for 003's seven gains.
+/// Parses `--beta`: a comma-separated list, or `paper` for Rubio & De la Sen's seven gains.
 fn betas(text: &str) -> Result<Vec<f64>, CliError> {
     if text.trim() == "paper" {
         return Ok(PAPER_BETAS.to_vec());
@@ -74,7 +74,7 @@ fn show(h: &DiscreteTf, beta: f64, name: &str) -> String {
     }
     out.push_str(&format!(" {}\n", terms.join(" + ").replace("+ -", "- ")));
     out.push_str(&format!(
-        "  // {name}: β = {beta}, T = {} s (qloop c2d, 003 eqs. 4-5):\n  // H(z) = ({name}_B0 + {name}_B1 z^-1 + ...) / (1 + {name}_A1 z^-1 + ...)\n",
+        "  // {name}: β = {beta}, T = {} s (qloop c2d, Rubio & De la Sen, eqs. 4-5):\n  // H(z) = ({name}_B0 + {name}_B1 z^-1 + ...) / (1 + {name}_A1 z^-1 + ...)\n",
         h.period
     ));
     for i in 1..=m {

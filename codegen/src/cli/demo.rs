@@ -49,7 +49,7 @@ pub fn run(out: &Path) -> CliResult {
         write_atomic(&p, text)?;
         println!("wrote {}", p.display());
     }
-    // The closed-loop step: the compiled controller on the turning plant, 000 Fig. 5, with
+    // The closed-loop step: the compiled controller on the turning plant, Koren & Masory (1981), Fig. 5, with
     // the paper's gains and with the tuned ones.
     println!();
     let run = |plan: &Plan, dir: &str| {

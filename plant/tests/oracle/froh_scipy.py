@@ -2,13 +2,13 @@
 """Independent oracle for qloop-plant's beta-FROH discretisation (plant/src/froh.rs).
 
 Writes froh_scipy.toml beside this script: for the paper's initial plant model and reference
-model (003_780323f84df40eb0.txt, Sec. V) at T = 0.0839 s, and for each beta of the paper's set,
+model (Rubio & De la Sen, Sec. V) at T = 0.0839 s, and for each beta of the paper's set,
 the first samples of the beta-FROH model's impulse response, computed by scipy in two ways that
 share nothing with the Rust code (which uses one Van Loan matrix exponential in state space):
 
   1. from scipy's ZOH and triangle-hold ("foh") discretisations, by the impulse-response
      identity  H_beta(z) = (1 - beta z^-1) H_zoh(z) + beta z^-1 H_tri(z);
-  2. from 003 eq. 5 as derived in froh.rs: H_beta = ((z - beta)/z) Z[h0 G]
+  2. from Rubio & De la Sen, eq. 5 as derived in froh.rs: H_beta = ((z - beta)/z) Z[h0 G]
      + beta (z - 1)/(T z) Z[h0 G/s], with scipy's ZOH of G and of G/s.
 
 The script asserts that the two agree, and also stores scipy's ZOH coefficients, which beta = 0

@@ -258,7 +258,7 @@ pub fn remove_stale_records(age: Duration) {
 }
 
 /// Whether this is the acceptance tier's run: `QLOOP_ACCEPTANCE` is set, and not to `0`
-/// (`.ci/run` sets it for the acceptance tier; README, "Tests").
+/// (`.ci/run` sets it for the acceptance tier; the book's "Tests and their tiers").
 pub fn acceptance() -> bool {
     std::env::var_os("QLOOP_ACCEPTANCE").is_some_and(|v| !v.is_empty() && v != "0")
 }
@@ -324,8 +324,8 @@ pub fn assert_lists_folder(folder: &str, listed: &[&str]) {
 /// parallel. `spec_tests! { NAME in "FOLDER"; default: [..]; acceptance: [..]; }` next to a
 /// function `fn NAME(stem: &str)` declares a module `NAME` holding a test per listed stem,
 /// `NAME::<stem>`, which calls the function with it. The stems under `default` run in `cargo
-/// test`; those under `acceptance` are `#[ignore]`d, and the acceptance tier runs them (README,
-/// "Tests"). A last test, `NAME::every_spec_of_the_folder_has_a_test`, checks that the two lists
+/// test`; those under `acceptance` are `#[ignore]`d, and the acceptance tier runs them (the
+/// book's "Tests and their tiers"). A last test, `NAME::every_spec_of_the_folder_has_a_test`, checks that the two lists
 /// together name every `*.qloop` file of `FOLDER` (relative to the workspace root), and only
 /// those. Several checks with the same tiers share one call: `spec_tests! { A, B in "FOLDER";
 /// .. }` declares modules `A` and `B`.
@@ -358,7 +358,7 @@ macro_rules! spec_tests {
             )*
             $(
                 #[test]
-                #[ignore = "acceptance tier (README, Tests)"]
+                #[ignore = "acceptance tier (docs/book/src/internals/tests.md)"]
                 fn $a() {
                     super::$name(stringify!($a))
                 }

@@ -346,7 +346,7 @@ mod tests {
             check(|x| x.ln(), |x| -1.0 / (x * x), a, b, 0.1);
             check(|x| x.sqrt(), |x| -0.25 * x.powf(-1.5), a, b, 0.1);
             check(|x| x.powc(1.5), |x| 0.75 * x.powf(-0.5), a, b, 0.1);
-            // A composite: 203·Ks/(224 − η)·(e^(−ηT) − C0) of 004 eq. 17 as a function of η.
+            // A composite: 203·Ks/(224 − η)·(e^(−ηT) − C0) of Jenkins & Kurfess, eq. 17 as a function of η.
             let (t, c0) = (2.214e-3, (-224.0f64 * 2.214e-3).exp());
             let f2 = |x: Dual| {
                 let num = x.scale_const(-t)?.exp()?.sub(Dual::constant(c0))?;

@@ -26,7 +26,7 @@ use units::{ParamUnits, Ty};
 /// Help text for any `/` or `%` in a spec.
 pub const DIVISION_HELP: &str = "qloop never emits division: a small controller has no divide \
 instruction and a software divide is slow and has a panicking path. Koren & Masory (1981) replace \
-K_c = K / K_m (000_b8cbacf29caa8fe2.txt, eq. 3) by an integrating loop that converges to the \
+K_c = K / K_m (Koren & Masory 1981, eq. 3) by an integrating loop that converges to the \
 quotient without dividing: E_c(i+1) = K - K_c(i)*K_m(i); K_c(i+1) = K_c(i) + C2*E_c(i+1) \
 (eqs. 12-13). Write the quotient as a state updated that way, or, for a constant divisor, \
 multiply by its reciprocal (`x * 0.25`, not `x / 4.0`)";

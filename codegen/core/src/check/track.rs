@@ -2,7 +2,7 @@
 //! dividing.
 //!
 //! Koren & Masory (1981) normalise the loop gain by the estimated process gain, `K_c = K/K_m`
-//! (000_b8cbacf29caa8fe2.txt, eq. 3), with an integrating loop instead of a division:
+//! (Koren & Masory 1981, eq. 3), with an integrating loop instead of a division:
 //! `E_c = K − K_c·K_m`, `K_c ← K_c + C2·E_c` (eqs. 12-13). With `K = 1` that loop tracks the
 //! reciprocal: `r ← r + G·(1 − x·r)`. Its error `e = 1 − x·r` obeys, for a constant `x`,
 //! `e ← (1 − G·x)·e`, so it contracts by `ρ = max |1 − G·x|` over the range of `x` (`ρ < 1`

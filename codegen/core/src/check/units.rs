@@ -57,7 +57,7 @@ impl Ty {
                     )),
                     None => d.help(
                         "units are SI symbols with prefixes (mm, kN, kW, ms) and rev, rpm, min, \
-                         h, deg, rad, in, %, joined with * / ^ and parentheses; see README, Units",
+                         h, deg, rad, in, %, joined with * / ^ and parentheses; see the qloop book, Units",
                     ),
                 };
                 Err(d)

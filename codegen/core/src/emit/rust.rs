@@ -312,7 +312,7 @@ fn step_method(plan: &Plan, sigs: &Sigs) -> TokenStream {
 fn keep_fn() -> TokenStream {
     quote! {
         /// Keeps a shift-add term opaque where a multiply would be a library call (see the
-        /// qloop README, "Object code").
+        /// qloop book, "Targets, C output and object code").
         #[inline(always)]
         fn qloop_keep<T>(x: T) -> T {
             #[cfg(any(

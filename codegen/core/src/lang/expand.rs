@@ -1,6 +1,6 @@
 //! Expansion of vectors, matrices and `for` loops into scalars, before checking.
 //!
-//! The estimators of the source papers (RLS in 002 eq. 29 and 003, the pole estimate of 004)
+//! The estimators of the source papers (RLS in Koren's survey, eq. 29 and Rubio & De la Sen, the pole estimate of Jenkins & Kurfess)
 //! work on short vectors: a regressor φ, a parameter estimate θ, a covariance P. qloop writes
 //! them as arrays of signals and keeps one scalar IR: this pass rewrites the parsed spec so
 //! that the checker, range analysis, format choice, the proofs and every emitter see scalars

@@ -1,5 +1,5 @@
 //! Variable × constant: the constant gains of every controller (the 1981 law's K_c·2^-n
-//! steps, 000_b8cbacf29caa8fe2.txt, eqs. 8–10, are shifts and adds by construction).
+//! steps, Koren & Masory (1981), eqs. 8–10, are shifts and adds by construction).
 //!
 //! Four steps, one method each: [`Lowerer::const_factor`] quantises the constant on the
 //! variable's grid (dropping the fewest fraction bits of the variable that keep the product

@@ -1,6 +1,6 @@
 //! Lowering: real-valued IR → fixed-point plan.
 //!
-//! The rules (see the README's "Fixed-point semantics"):
+//! The rules (see the book's "Fixed-point semantics", docs/book/src/reference/semantics.md):
 //! * Inputs, states and outputs get a storage [`QFormat`] from their declared range (and
 //!   `#[lsb]` request or `#[q]` pin); unranged outputs from the range analysis.
 //! * Every intermediate is exact where it can be: `a ± b` aligns binary points by left

@@ -108,8 +108,7 @@ fn kani_version(cargo: &str) -> CliResult<String> {
         Ok(o) if o.status.success() => Ok(String::from_utf8_lossy(&o.stdout).trim().to_string()),
         _ => Err(CliError::tool(
             "`cargo kani` is not installed: `cargo install --locked kani-verifier && cargo kani \
-             setup`, or where that cannot download, build Kani from source (README, \"Kani \
-             harnesses\")",
+             setup`, or where that cannot download, build Kani from source (docs/book/src/reference/kani.md)",
         )),
     }
 }

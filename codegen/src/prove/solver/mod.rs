@@ -169,7 +169,7 @@ pub struct Config {
     /// Which solvers to run, in the order their [`Run`]s are returned (default: those of
     /// [`Solver::ALL`] that are available).
     pub solvers: Vec<Solver>,
-    /// Timeout per solver per query, in milliseconds (default 60 000).
+    /// Timeout per solver per query, in milliseconds (default 60 Koren & Masory (1981)).
     pub timeout_ms: u64,
     /// Directory of the verdict cache; `None` (the default) disables caching.
     pub cache_dir: Option<PathBuf>,

@@ -65,7 +65,7 @@ use quote::{format_ident, quote};
 pub const CASES: usize = 1_000;
 
 /// Random cases per harness in the acceptance tier (`.ci/run` sets `BOLERO_RANDOM_ITERATIONS`
-/// to this; README, "Tests").
+/// to this; the book's "Tests and their tiers").
 pub const ACCEPTANCE_CASES: usize = 100_000;
 
 /// Largest magnitude, as a power of two, an exactly evaluated intermediate may reach.
