@@ -214,7 +214,8 @@ fn specs_the_plant_cannot_run_are_refused_with_its_contract() {
     }
 }
 
-/// `qloop plants` prints every plant's contract: units, channels, reference, scenarios.
+/// `qloop plants` prints every plant's contract: units, channels, reference, scenarios, and the
+/// fault scenarios `--scenario` accepts (the turning plant's six).
 #[test]
 fn plants_prints_the_contracts() {
     let o = qloop(&["plants"]);
@@ -228,6 +229,7 @@ fn plants_prints_the_contracts() {
         "plant `grinding`",
         "position in mm",
         "scenarios: depth-steps",
+        "fault scenarios (sensor and process faults; not in a sweep's default set): adc-saturation (30 s), stuck-sensor",
     ] {
         assert!(out.contains(want), "`{want}` not in {out}");
     }

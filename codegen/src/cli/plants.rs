@@ -20,6 +20,16 @@ pub fn run(plant: Option<&str>) -> CliResult {
             .map(|s| format!("{} ({} s)", s.name, s.duration_s))
             .collect();
         println!("  scenarios: {} (or a scenario TOML file)", scs.join(", "));
+        let faults: Vec<String> = catalog::fault_scenarios_of(name)
+            .iter()
+            .map(|s| format!("{} ({} s)", s.name, s.duration_s))
+            .collect();
+        if !faults.is_empty() {
+            println!(
+                "  fault scenarios (sensor and process faults; not in a sweep's default set): {}",
+                faults.join(", ")
+            );
+        }
     }
     Ok(())
 }
