@@ -1,5 +1,6 @@
 //! Helpers shared by the workspace integration tests.
 
+pub mod avr;
 pub mod c_harness;
 pub mod cases;
 pub mod claims;

@@ -8,6 +8,8 @@
 //!   built by the host gcc with UBSan (any signed overflow, bad shift or bad conversion
 //!   aborts), against the `controller!` modules of `qloop-verified` over long random
 //!   trajectories, and against qloop's plan interpreter from random and corner states;
+//! * built by avr-gcc and run in simavr, computes on the ATmega328P what the interpreter
+//!   computes, where that C reads its 64-bit shifts from their bytes (`qloop_NAME_sar64`);
 //! * is free of run-time errors for every state in range and every raw input: Frama-C Eva
 //!   reports 0 alarms and proves the ACSL contract, with the host's 32-bit `int`
 //!   (machdep x86_64) and with AVR's 16-bit `int` (machdep x86_16).
@@ -18,7 +20,8 @@
 
 use qloop::interp::step_fixed;
 use qloop::ir::SigKind;
-use qloop_tests::c_harness::{self, fixed_driver_exe, ids, raw_input, run_lines, Rng};
+use qloop_tests::avr;
+use qloop_tests::c_harness::{self, fixed_driver_exe, ids, raw_input, run_lines, Case, Rng};
 use qloop_tests::{plan_for, scratch, tool};
 use std::fmt::Write;
 
@@ -207,6 +210,62 @@ fn c_matches_the_interpreter_from_any_state(
     }
     let got: Vec<Vec<i64>> = run_lines(exe, &script);
     assert_eq!(got, want, "{stem}/{target}");
+}
+
+/// On the ATmega328P, where avr-gcc makes an `int64_t` shift a bit-at-a-time libgcc call, the C
+/// reads a right shift of a 64-bit value with a 32-bit result from its bytes
+/// (`qloop_NAME_sar64`). Two seeds and the ZOH-only multi-model design, whose AVR C has such
+/// shifts by numbers of bits below 32 that are not multiples of 8 (the helper's two-word path)
+/// and, in the last, of 32 and more (its high-word path), run 400 steps of random raw inputs
+/// from the initial state in simavr: every step's outputs and states are the interpreter's.
+/// (The host runs above build the same C with the host gcc, little-endian too, from any
+/// state.)
+#[test]
+fn avr_c_in_simavr_matches_the_interpreter() {
+    let Some(sim) = avr::Simavr::find() else {
+        return;
+    };
+    let avr = qloop::targets::by_name("atmega328p").unwrap();
+    let zoh = qloop::compile_str(include_str!("milling_zoh.qloop"), &avr).unwrap();
+    let plans = [
+        plan_for("grinding_pi", "atmega328p"),
+        plan_for("gac_surface_finish", "atmega328p"),
+        zoh,
+    ];
+    let mut paths = [false; 2];
+    for plan in &plans {
+        let stem = &plan.prog.name;
+        let c = qloop::gen_c(plan).1;
+        let shifts: Vec<u32> = c
+            .split(&format!("qloop_{stem}_sar64("))
+            .skip(2)
+            .filter_map(|call| call.split(", ").nth(1)?.split('u').next()?.parse().ok())
+            .collect();
+        assert!(
+            shifts.iter().any(|k| k % 8 != 0),
+            "{stem}: no sar64 read of an unaligned shift in the AVR C"
+        );
+        paths[0] |= shifts.iter().any(|k| *k < 32 && k % 8 != 0);
+        paths[1] |= shifts.iter().any(|k| *k > 32 && k % 8 != 0);
+        let inputs = ids(plan, SigKind::Input);
+        let mut rng = Rng(0x5a64_0000_0000_0400);
+        let cases: Vec<Case> = (0..400)
+            .map(|_| Case {
+                states: None,
+                inputs: inputs
+                    .iter()
+                    .map(|id| raw_input(plan, *id, &mut rng))
+                    .collect(),
+            })
+            .collect();
+        let dir = scratch(&format!("c-avr-simavr-{stem}"));
+        let n = avr::matches_the_interpreter(&sim, plan, &cases, &dir);
+        println!("{stem}: {n} steps in simavr equal to the interpreter");
+    }
+    assert_eq!(
+        paths, [true; 2],
+        "the helper's paths (k < 32, k > 32) are run"
+    );
 }
 
 fn c_is_free_of_runtime_errors_by_frama_c_eva(stem: &str) {

@@ -10,7 +10,7 @@
 //!   linked firmware, read with `lpm`; the same C built without `__AVR__` puts them in
 //!   `.data` (the check can tell);
 //! * that firmware, run in simavr (`targets/avr/cycles.c`), computes bit for bit what qloop's
-//!   plan interpreter computes;
+//!   plan interpreter computes, its 64-bit shifts read from their bytes (`qloop_tables_sar64`);
 //! * built for the host with UBSan, every target's C equals the interpreter bit for bit, on
 //!   every grid knot of each argument (±1 raw) and random raw inputs in and beyond the ranges;
 //! * Frama-C Eva proves the step free of run-time errors (0 alarms), table reads included:
@@ -25,11 +25,11 @@
 
 use qloop::ir::{SigId, SigKind};
 use qloop::Plan;
+use qloop_tests::avr;
 use qloop_tests::c_harness::{self, ids, raw_input, Case, Rng};
 use qloop_tests::{run, scratch, sig, tool};
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 const SPEC: &str = include_str!("tables.qloop");
@@ -228,102 +228,6 @@ fn sections(size: &Path, file: &Path) -> BTreeMap<String, u64> {
         .collect()
 }
 
-/// An ATmega328P firmware (in `dir`) for the simavr runner `targets/avr/cycles.c`: the raw
-/// inputs of every step in flash, then per step the step between markers and its raw outputs
-/// and states reported as 8-byte values (`targets/avr/firmware/sim_protocol.h`), then the
-/// done marker. Extra `cflags` go to the controller's C only. The ELF's path.
-fn avr_firmware(
-    plan: &Plan,
-    cc: &Path,
-    dir: &Path,
-    steps: &[Vec<i128>],
-    cflags: &[&str],
-) -> PathBuf {
-    let n = &plan.prog.name;
-    let c = c_harness::write_c(plan, dir);
-    let inputs = ids(plan, SigKind::Input);
-    let mut m = format!(
-        "#include <avr/io.h>\n#include <avr/pgmspace.h>\n#include <stdint.h>\n\
-         #include \"sim_protocol.h\"\n#include \"{n}.h\"\n\n#define STEPS {}u\n\n",
-        steps.len()
-    );
-    let mut read = String::new();
-    for (k, id) in inputs.iter().enumerate() {
-        let ty = plan.format(*id).ty;
-        let vals: Vec<String> = steps
-            .iter()
-            .map(|s| qloop::emit::c::c_lit(s[k], ty))
-            .collect();
-        let _ = writeln!(
-            m,
-            "static const {} in_{k}[STEPS] PROGMEM = {{\n    {}\n}};",
-            qloop::emit::c::c_ty(ty),
-            vals.join(", ")
-        );
-        let rd = match ty.bits {
-            8 => "pgm_read_byte",
-            16 => "pgm_read_word",
-            32 => "pgm_read_dword",
-            b => panic!("{b}-bit input"),
-        };
-        let _ = writeln!(
-            read,
-            "        in.{} = ({}){rd}(&in_{k}[k]);",
-            c_harness::field(plan, *id),
-            qloop::emit::c::c_ty(ty)
-        );
-    }
-    let mut report = String::new();
-    for (what, kind) in [("out", SigKind::Output), ("st", SigKind::State)] {
-        for id in ids(plan, kind) {
-            let _ = writeln!(
-                report,
-                "        value((int64_t){what}.{});",
-                c_harness::field(plan, id)
-            );
-        }
-    }
-    let _ = write!(
-        m,
-        "\nstatic {n}_state st;\nstatic {n}_inputs in;\nstatic {n}_outputs out;\n\n\
-         /* Eight bytes, least significant first, committed as a signed 8-byte value. */\n\
-         static void value(int64_t v)\n{{\n    uint64_t u = (uint64_t)v;\n    uint8_t b;\n\
-         \x20   for (b = 0; b < 8; b++) {{\n        GPIOR1 = (uint8_t)u;\n        u >>= 8;\n    }}\n\
-         \x20   GPIOR2 = 0x88;\n}}\n\n\
-         int main(void)\n{{\n    uint16_t k;\n    __asm__ __volatile__(\"cli\" ::: \"memory\");\n\
-         \x20   MARK(MARK_CAL_BEGIN);\n    MARK(MARK_CAL_END);\n    {n}_init(&st);\n\
-         \x20   for (k = 0; k < STEPS; k++) {{\n{read}\
-         \x20       MARK(MARK_STEP_BEGIN);\n        {n}_step(&st, &in, &out);\n        MARK(MARK_STEP_END);\n\
-         {report}\x20       MARK(MARK_RECORD_END);\n    }}\n    MARK(MARK_DONE);\n\
-         \x20   for (;;)\n        __asm__ __volatile__(\"cli\\n\\tsleep\" ::: \"memory\");\n}}\n"
-    );
-    std::fs::write(dir.join("main.c"), m).unwrap();
-    let warn = ["-std=c99", "-Wall", "-Wextra", "-Werror"];
-    let flags = &plan.target.toolchain.cflags;
-    let obj = dir.join(format!("{n}.o"));
-    run(Command::new(cc)
-        .args(warn)
-        .args(flags)
-        .args(cflags)
-        .arg("-c")
-        .arg(&c)
-        .arg("-o")
-        .arg(&obj));
-    let elf = dir.join("firmware.elf");
-    run(Command::new(cc)
-        .args(warn)
-        .args(flags)
-        .arg("-I")
-        .arg(c_harness::root().join("targets/avr/firmware"))
-        .arg("-I")
-        .arg(dir)
-        .arg(dir.join("main.c"))
-        .arg(&obj)
-        .arg("-o")
-        .arg(&elf));
-    elf
-}
-
 /// The four arrays of tables.qloop.
 const ARRAYS: [&str; 4] = [
     "tables_table_0",
@@ -362,7 +266,7 @@ fn avr_tables_are_in_flash() {
         .sum();
     for (progmem, flags) in [(true, &[][..]), (false, &["-U__AVR__"][..])] {
         let dir = scratch(&format!("c-tables-avr-flash-{progmem}"));
-        let elf = avr_firmware(&plan, cc, &dir, &steps, flags);
+        let elf = avr::firmware(&plan, cc, &dir, &steps, flags);
         let obj = dir.join("tables.o");
         let (o_syms, e_syms) = (symbols(objdump, &obj), symbols(objdump, &elf));
         let o_secs = sections(size, &obj);
@@ -414,88 +318,25 @@ fn avr_tables_are_in_flash() {
     }
 }
 
-/// simavr's headers and library, as `targets/avr/Makefile` looks for them.
-fn libsimavr() -> Option<Vec<String>> {
-    let pc = Command::new("pkg-config")
-        .args(["--cflags", "simavr"])
-        .output()
-        .ok()
-        .filter(|o| o.status.success())
-        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string());
-    let header = Path::new("/usr/include/simavr/sim_avr.h").is_file() || pc.is_some();
-    if !header || qloop_tests::hidden("simavr") {
-        qloop_tests::skip("libsimavr is not installed (simavr, libsimavr-dev)");
-        return None;
-    }
-    let inc = pc
-        .filter(|s| !s.is_empty())
-        .unwrap_or_else(|| "-I/usr/include/simavr".into());
-    Some(inc.split_whitespace().map(String::from).collect())
-}
-
-/// The simavr runner `targets/avr/cycles.c`, built in `dir` with the host `cc` (the static
-/// libsimavr needs libelf; the shared one brings it).
-fn cycles_runner(cc: &Path, include: &[String], dir: &Path) -> PathBuf {
-    let exe = dir.join("cycles");
-    let mut errors = String::new();
-    for libs in [&["-lsimavr", "-lelf"][..], &["-l:libsimavr.so.2"][..]] {
-        let o = Command::new(cc)
-            .args(["-O2", "-std=c99", "-Wall", "-Wextra", "-Werror"])
-            .args(include)
-            .arg(c_harness::root().join("targets/avr/cycles.c"))
-            .arg("-o")
-            .arg(&exe)
-            .args(libs)
-            .output()
-            .unwrap();
-        if o.status.success() {
-            return exe;
-        }
-        errors.push_str(&String::from_utf8_lossy(&o.stderr));
-    }
-    panic!("cannot build targets/avr/cycles.c:\n{errors}");
-}
-
 /// The ATmega328P firmware in simavr: every step's raw outputs are the interpreter's, on the
 /// knots of both tables and random raw inputs (in flash, so the inputs cost no RAM).
 #[test]
 fn avr_firmware_in_simavr_matches_the_interpreter() {
-    let (Some(avr_cc), Some(cc)) = (tool("avr-gcc"), tool("cc")) else {
+    let Some(sim) = avr::Simavr::find() else {
         return;
     };
-    let Some(include) = libsimavr() else { return };
     let plan = plan_for("atmega328p");
-    let dir = scratch("c-tables-avr-simavr");
-    let runner = cycles_runner(&cc, &include, &dir);
+    // Its products' alignments are right shifts of `int64_t`s with 32-bit results, which the
+    // AVR C reads from their bytes (`qloop_NAME_sar64`): this run is that helper's on avr-gcc.
+    let c = qloop::gen_c(&plan).1;
+    assert!(
+        c.matches("qloop_tables_sar64(").count() > 2,
+        "no sar64 read in the AVR C"
+    );
     let mut rng = Rng(0x51a4_0000_0000_0329);
     let cases = cases(&plan, &mut rng, 1_000);
-    let want = c_harness::interpreted(&plan, &cases);
-    let steps: Vec<Vec<i128>> = cases.iter().map(|c| c.inputs.clone()).collect();
-    let elf = avr_firmware(&plan, &avr_cc, &dir, &steps, &[]);
-    let out = run(Command::new(&runner).arg(&elf));
-    let got: Vec<Vec<i64>> = out
-        .lines()
-        .filter_map(|l| l.strip_prefix("out "))
-        .map(|l| {
-            l.split_whitespace()
-                .skip(1)
-                .map(|x| x.parse().unwrap())
-                .collect()
-        })
-        .collect();
-    assert!(out.contains("end done-marker "), "{out}");
-    assert_eq!(got.len(), want.len(), "steps reported:\n{out}");
-    for (k, (g, w)) in got.iter().zip(&want).enumerate() {
-        assert_eq!(g, w, "step {k} ({:?}): simavr vs interpreter", cases[k]);
-    }
-    let summary = out
-        .lines()
-        .find(|l| l.starts_with("summary "))
-        .unwrap_or("");
-    println!(
-        "simavr: {} steps equal to the interpreter; cycles per step: {summary}",
-        got.len()
-    );
+    let n = avr::matches_the_interpreter(&sim, &plan, &cases, &scratch("c-tables-avr-simavr"));
+    println!("simavr: {n} steps equal to the interpreter");
 }
 
 #[test]

@@ -76,7 +76,8 @@ fn is_mul(line: &str) -> bool {
 /// it, and no instruction in between writes that register (as its first operand). The C writes a left
 /// shift of a signed value as `x * 2^k` (C99 leaves `x << k` undefined for negative `x`);
 /// GCC for Cortex-M4 may fold that multiply and the add after it into one `smlal`. That is a
-/// shift, not a shift-add network folded back. Helper calls never count as one.
+/// shift, not a shift-add network folded back; so does avr-gcc's `mul` by an `ldi` power of
+/// two, its 2-cycle way of shifting a byte left. Helper calls never count as one.
 fn by_power_of_two(asm: &[String], i: usize) -> bool {
     // `  8e:\tmov.w\tr3, #536870912\t@ 0x20000000` → `["r3", "#536870912"]`.
     let operands = |l: &str| -> Vec<String> {
@@ -86,7 +87,8 @@ fn by_power_of_two(asm: &[String], i: usize) -> bool {
             .unwrap_or_default()
     };
     let power_of_two = |v: &str| {
-        let v = v.strip_prefix('#')?;
+        // `#4` (ARM) or `0x10` (AVR's `ldi`).
+        let v = v.strip_prefix('#').unwrap_or(v);
         match v.strip_prefix("0x") {
             Some(h) => u64::from_str_radix(h, 16).ok(),
             None => v.parse::<u64>().ok(),
@@ -111,8 +113,10 @@ fn by_power_of_two(asm: &[String], i: usize) -> bool {
         let set = before.iter().rev().find(|l| operands(l).first() == Some(r));
         set.is_some_and(|l| {
             let ops = operands(l);
-            matches!(mnemonic(l).as_str(), "mov" | "mov.w" | "movs" | "movw")
-                && ops.len() == 2
+            matches!(
+                mnemonic(l).as_str(),
+                "mov" | "mov.w" | "movs" | "movw" | "ldi"
+            ) && ops.len() == 2
                 && power_of_two(&ops[1]).is_some()
         })
     })
@@ -430,7 +434,11 @@ fn only_a_multiply_by_a_power_of_two_is_a_shift() {
         "  92:\tsmlal\tr0, r1, r2, r3",
     ]);
     assert!(by_power_of_two(&shift, 1));
+    // avr-gcc shifts a byte left by 4 as a multiply by 16.
+    let avr = asm(&["  136:\tldi\tr20, 0x10\t; 16", "  138:\tmul\tr23, r20"]);
+    assert!(by_power_of_two(&avr, 1));
     for bad in [
+        asm(&["  136:\tldi\tr20, 0x05\t; 5", "  138:\tmul\tr23, r20"]),
         // Not a power of two: a constant multiply re-formed.
         asm(&["  8e:\tmov.w\tr3, #5", "  92:\tsmlal\tr0, r1, r2, r3"]),
         // The power of two is overwritten before the multiply.

@@ -122,6 +122,27 @@ pub enum TableClaim {
 }
 
 impl Table {
+    /// The format its samples are stored in (`lower::table`): the best for their range in
+    /// `word`-bit words, the range widened by its magnitude (at least 1) when every sample is
+    /// the same; `None` if no format of that width holds them.
+    pub fn stored_format(&self, word: u32) -> Option<QFormat> {
+        let (lo, hi) = self.sample_hull(0, self.samples.len().saturating_sub(1));
+        let pad = if lo == hi { lo.abs().max(1.0) } else { 0.0 };
+        QFormat::best_for(crate::qformat::IntTy::signed(word), lo - pad, hi + pad)
+    }
+
+    /// The smallest and largest of samples `first..=last` (clamped to the samples).
+    pub fn sample_hull(&self, first: usize, last: usize) -> (f64, f64) {
+        let last = last.min(self.samples.len().saturating_sub(1));
+        self.samples
+            .get(first..=last)
+            .unwrap_or_default()
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                (a.min(v), b.max(v))
+            })
+    }
+
     /// The verdict on the claimed interpolation error, if there is a claim.
     pub fn claim_verdict(&self) -> Option<TableClaim> {
         let c = self.claim?;

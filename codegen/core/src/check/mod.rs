@@ -318,23 +318,43 @@ impl Checker {
         let (lo, hi) = if kind == 'r' {
             (c(format!("{site}_lo{k}"))?, c(format!("{site}_hi{k}"))?)
         } else {
+            let r = self
+                .recip_sites
+                .iter()
+                .find(|r| r.lets[0] == format!("{site}_d"))?;
             let (pl, ph) = if k == 1 {
-                let s = c(format!("{site}_seed"))?;
-                (s, s)
+                match &r.seed_table {
+                    None => {
+                        let s = c(format!("{site}_seed"))?;
+                        (s, s)
+                    }
+                    // A table seed: the hull of its samples over the segments `d ∈ [LO, HI]`
+                    // reaches, where its interpolant lies (and, stored, within half an LSB).
+                    Some(t) => self.table_hull(t, &r.lo, &r.hi)?,
+                }
             } else {
                 (
                     c(format!("{site}_lo{}", k - 1))?,
                     c(format!("{site}_hi{}", k - 1))?,
                 )
             };
-            let r = self
-                .recip_sites
-                .iter()
-                .find(|r| r.lets[0] == format!("{site}_d"))?;
             let (dl, dh) = (self.const_eval(&r.lo).ok()?, self.const_eval(&r.hi).ok()?);
             (2.0 - dh * ph, 2.0 - dl * pl)
         };
         QFormat::best_for(IntTy::signed(self.word), lo, hi)
+    }
+
+    /// The smallest and largest stored sample of table `name` (each rounded to nearest in the
+    /// table's stored format, exactly as `lower::table` stores it) over the segments that
+    /// `[lo, hi]` reaches: the interpolant, its rounding and its clamp stay inside them.
+    fn table_hull(&self, name: &str, lo: &syn::Expr, hi: &syn::Expr) -> Option<(f64, f64)> {
+        let t = self.tables.iter().find(|t| t.name == name)?;
+        let (lo, hi) = (self.const_eval(lo).ok()?, self.const_eval(hi).ok()?);
+        let first = ((lo - t.lo) / t.step).floor().max(0.0) as usize;
+        let last = ((hi - t.lo) / t.step).ceil().max(0.0) as usize;
+        let q = t.stored_format(self.word)?;
+        let (a, b) = t.sample_hull(first, last);
+        (a <= b).then(|| (q.value(q.raw_nearest(a)), q.value(q.raw_nearest(b))))
     }
 
     /// The `newton_recip` sites as IR, with their ranges evaluated and checked.

@@ -116,27 +116,16 @@ impl Lowerer<'_> {
             ));
         }
         // The result format and the arrays.
-        let (smin, smax) = tab
-            .samples
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-                (a.min(v), b.max(v))
-            });
-        let pad = if smin == smax {
-            smin.abs().max(1.0)
-        } else {
-            0.0
-        };
-        let q = QFormat::best_for(IntTy::signed(self.prog.word), smin - pad, smax + pad)
-            .ok_or_else(|| {
-                Diag::new(
-                    span,
-                    format!(
-                        "the values of table `{}` span [{smin:e}, {smax:e}], too wide for {}-bit words",
-                        tab.name, self.prog.word
-                    ),
-                )
-            })?;
+        let q = tab.stored_format(self.prog.word).ok_or_else(|| {
+            let (smin, smax) = tab.sample_hull(0, tab.samples.len());
+            Diag::new(
+                span,
+                format!(
+                    "the values of table `{}` span [{smin:e}, {smax:e}], too wide for {}-bit words",
+                    tab.name, self.prog.word
+                ),
+            )
+        })?;
         let entries: Vec<i128> = tab.samples.iter().map(|v| q.raw_nearest(*v)).collect();
         let mut deltas: Vec<i128> = entries.windows(2).map(|w| w[1] - w[0]).collect();
         deltas.push(0);

@@ -225,8 +225,9 @@ impl Target {
         bits.div_ceil(self.word_bits).max(1)
     }
 
-    /// Whether `bits`-wide adds and shifts are library calls.
-    fn libcall(&self, bits: u32) -> bool {
+    /// Whether `bits`-wide adds and shifts are library calls (avr-gcc's `int64_t`): the cost
+    /// model charges them as calls, and the C emitter writes some of them another way.
+    pub fn libcall(&self, bits: u32) -> bool {
         self.costs.libcall_bits > 0 && bits >= self.costs.libcall_bits
     }
 
