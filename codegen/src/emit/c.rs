@@ -45,6 +45,8 @@ use crate::lower::Plan;
 use crate::qformat::IntTy;
 use std::fmt::Write;
 
+mod wide;
+
 /// C99's keywords (C99 6.4.1; the `_Bool`-style ones cannot collide with a spec name that
 /// does not start with `_`). Every C emitter renames a spec name that is one.
 pub const C99_KEYWORDS: [&str; 34] = [
@@ -333,8 +335,8 @@ fn body(plan: &Plan, include: bool) -> String {
          #endif\n\
          #endif\n\n"
     );
-    if uses_narrow_shift(plan) {
-        o.push_str(&NARROW_SHIFT.replace("qloop_", &format!("qloop_{n}_")));
+    if wide::used(plan) {
+        o.push_str(&wide::HELPERS.replace("qloop_", &format!("qloop_{n}_")));
     }
     o.push_str(&table_arrays(plan));
     let _ = writeln!(o, "void {n}_init({n}_state *self)\n{{");
@@ -500,7 +502,7 @@ fn block(plan: &Plan, stmts: &[LStmt], depth: usize, o: &mut String) {
                 };
                 let nm = name(plan, *id);
                 let tmp = format!("qloop_{}", id.0);
-                if let Some(e) = narrow_shift(plan, *id) {
+                if let Some(e) = wide::shift(plan, *id) {
                     // A shifted term of a network stays opaque too (see QLOOP_KEEP).
                     let qual = if v.network { "" } else { "const " };
                     let _ = writeln!(o, "{ind}{qual}{ty} {nm} = {e};");
@@ -591,64 +593,6 @@ fn byte_split(plan: &Plan, id: ValId, mid: &str) -> Option<(String, String)> {
         (false, true) => (times(&an, moved), times(mid, sp.bits)),
         (false, false) => (shr(&an, moved), shr(mid, sp.bits)),
     })
-}
-
-/// `qloop_NAME_sar64(x, k)`: `floor(x / 2^k)` of an `int64_t` whose result fits an `int32_t`, for
-/// targets whose 64-bit shifts are library calls. avr-gcc shifts an `int64_t` in libgcc
-/// (`__ashrdi3`, `__lshrdi3`), a bit at a time over eight bytes, and a byte split
-/// (`byte_split`) does not help there: its whole-byte part is a 64-bit shift too, and its
-/// multiply by 2^n a `__muldi3`. The result is bits `k .. k + 31` of `x`: four bytes of it and
-/// a few bits of the next, read through a union (little-endian, GCC), shifted in 32 bits;
-/// exact, so the plain shift is the same function (what Frama-C and other compilers see).
-const NARROW_SHIFT: &str = "/* floor(x / 2^k) of an int64_t whose result fits int32_t (proved), from the bytes of x:\n\
- * avr-gcc shifts an int64_t in libgcc, one bit at a time. Exact: the same as (int32_t)(x >> k). */\n\
-#if defined(__GNUC__) && !defined(__FRAMAC__) && defined(__BYTE_ORDER__) && \\\n\
-    __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__\n\
-typedef union { int64_t v; int32_t w[2]; uint8_t b[8]; } qloop_i64_bytes;\n\
-static inline __attribute__((always_inline)) int32_t qloop_sar64(int64_t x, unsigned k)\n\
-{\n\
-    qloop_i64_bytes u;\n\
-    u.v = x;\n\
-    if (k >= 32u) {\n\
-        int32_t h = (int32_t)(u.w[1] >> ((k - 32u) & ~7u));\n\
-        QLOOP_KEEP(h);\n\
-        return (int32_t)(h >> ((k - 32u) & 7u));\n\
-    }\n\
-    const unsigned q = k >> 3, r = k & 7u;\n\
-    uint32_t w = (uint32_t)u.b[q] | ((uint32_t)u.b[q + 1u] << 8) | ((uint32_t)u.b[q + 2u] << 16) |\n\
-                 ((uint32_t)u.b[q + 3u] << 24);\n\
-    if (r == 0u) {\n\
-        return (int32_t)w;\n\
-    }\n\
-    w = (uint32_t)(w >> r) | ((uint32_t)(uint8_t)(u.b[q + 4u] << (8u - r)) << 24);\n\
-    return (int32_t)w;\n\
-}\n\
-#else\n\
-static inline int32_t qloop_sar64(int64_t x, unsigned k) { return (int32_t)(x >> k); }\n\
-#endif\n\n";
-
-/// The `qloop_sar64` form of value `id`, if it is a right shift of a 64-bit value whose result
-/// fits 32 bits on a target whose 64-bit shifts are library calls (see [`NARROW_SHIFT`]).
-fn narrow_shift(plan: &Plan, id: ValId) -> Option<String> {
-    let v = plan.val(id);
-    let Op::Shr(a, k) = v.op else {
-        return None;
-    };
-    let av = plan.val(a);
-    let fits32 = v.lo >= i128::from(i32::MIN) && v.hi <= i128::from(i32::MAX);
-    (plan.target.libcall(64) && av.ty.bits == 64 && fits32 && k > 0 && k < 64).then(|| {
-        format!(
-            "({})qloop_{}_sar64({}, {k}u)",
-            c_ty(v.ty),
-            plan.prog.name,
-            name(plan, a)
-        )
-    })
-}
-
-/// Whether the step has a shift that [`narrow_shift`] writes.
-fn uses_narrow_shift(plan: &Plan) -> bool {
-    (0..plan.vals.len()).any(|i| narrow_shift(plan, ValId(i)).is_some())
 }
 
 /// The C name of table array `i` (samples, or differences).
