@@ -164,6 +164,30 @@ pub fn firmware(
     elf
 }
 
+/// A firmware of the plan's C and `main` (a C file that includes `NAME.c`, so it can call the
+/// controller's helpers), built with the plan's flags and run in simavr; what the runner
+/// printed (`targets/avr/cycles.c`: the values each step record reports on its `out` line).
+pub fn run_program(sim: &Simavr, plan: &Plan, main: &str, dir: &Path) -> String {
+    std::fs::create_dir_all(dir).unwrap();
+    write_c(plan, dir);
+    std::fs::write(dir.join("main.c"), main).unwrap();
+    let elf = dir.join("program.elf");
+    run(Command::new(&sim.avr_cc)
+        .args(["-std=c99", "-Wall", "-Wextra", "-Werror"])
+        .args(&plan.target.toolchain.cflags)
+        .arg("-I")
+        .arg(root().join("targets/avr/firmware"))
+        .arg("-I")
+        .arg(dir)
+        .arg(dir.join("main.c"))
+        .arg("-o")
+        .arg(&elf));
+    let runner = cycles_runner(&sim.cc, &sim.include, dir);
+    let out = run(Command::new(&runner).arg(&elf));
+    assert!(out.contains("end done-marker "), "{out}");
+    out
+}
+
 /// simavr's headers and library, as `targets/avr/Makefile` looks for them.
 fn libsimavr() -> Option<Vec<String>> {
     let pc = Command::new("pkg-config")

@@ -24,6 +24,7 @@ use qloop::report::op_counts;
 use qloop::Plan;
 use qloop_tests::c_harness;
 use qloop_tests::{hidden, plan_for, run, rust_target, scratch, skip, spec_stems, tool};
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -183,10 +184,22 @@ fn symbol_name(header: &str) -> Option<&str> {
 fn opaque_multiplies(src: &str) -> (String, usize) {
     let mut out = String::new();
     let mut n = 0;
+    let mut helper = false;
     for line in src.lines() {
         // `const int32_t _11 = (int32_t)(_9 * _10);` — both operands are names, never a
         // literal (power-of-two scalings are `* ((int32_t)4096)`).
         let replaced = line.split_once(" = (").and_then(|(lhs, rhs)| {
+            // `const int64_t _16 = (int64_t)qloop_NAME_mul64((int32_t)_14, (int32_t)_15);`:
+            // the AVR product helper (`codegen/src/emit/c/wide.rs`).
+            if let Some((ty, call)) = rhs.split_once(')') {
+                if let Some((_, args)) = call.split_once("_mul64((int32_t)") {
+                    let (a, b) = args.strip_suffix(");")?.split_once(", (int32_t)")?;
+                    helper = true;
+                    return Some(format!(
+                        "{lhs} = ({ty})qloop_opaque_mul((int64_t){a}, (int64_t){b});"
+                    ));
+                }
+            }
             let (ty, rest) = rhs.split_once(")(")?;
             let inner = rest.strip_suffix(");")?;
             let (a, b) = inner.split_once(" * ")?;
@@ -204,6 +217,21 @@ fn opaque_multiplies(src: &str) -> (String, usize) {
         out.push('\n');
     }
     let decl = "#include <stdbool.h>\nextern int64_t qloop_opaque_mul(int64_t a, int64_t b);\n";
+    if helper {
+        // The helper, now called nowhere, is still used (no -Wunused-function).
+        let name = src
+            .split_once("int64_t qloop_")
+            .and_then(|(_, r)| r.split_once("_mul64("))
+            .map(|(n, _)| format!("qloop_{n}_mul64"));
+        if let Some(name) = name {
+            let _ = writeln!(
+                out,
+                "typedef int64_t (*qloop_opaque_fn)(int32_t, int32_t);\n\
+                 qloop_opaque_fn qloop_opaque_keep(void);\n\
+                 qloop_opaque_fn qloop_opaque_keep(void) {{ return &{name}; }}"
+            );
+        }
+    }
     (out.replacen("#include <stdbool.h>\n", decl, 1), n)
 }
 

@@ -338,6 +338,9 @@ fn body(plan: &Plan, include: bool) -> String {
     if wide::used(plan) {
         o.push_str(&wide::HELPERS.replace("qloop_", &format!("qloop_{n}_")));
     }
+    if wide::multiplies(plan) {
+        o.push_str(&wide::product_helper().replace("qloop_", &format!("qloop_{n}_")));
+    }
     o.push_str(&table_arrays(plan));
     let _ = writeln!(o, "void {n}_init({n}_state *self)\n{{");
     for id in &states {
@@ -502,7 +505,7 @@ fn block(plan: &Plan, stmts: &[LStmt], depth: usize, o: &mut String) {
                 };
                 let nm = name(plan, *id);
                 let tmp = format!("qloop_{}", id.0);
-                if let Some(e) = wide::shift(plan, *id) {
+                if let Some(e) = wide::shift(plan, *id).or_else(|| wide::product(plan, *id)) {
                     // A shifted term of a network stays opaque too (see QLOOP_KEEP).
                     let qual = if v.network { "" } else { "const " };
                     let _ = writeln!(o, "{ind}{qual}{ty} {nm} = {e};");
