@@ -219,10 +219,10 @@ fn opaque_multiplies(src: &str) -> (String, usize) {
     let decl = "#include <stdbool.h>\nextern int64_t qloop_opaque_mul(int64_t a, int64_t b);\n";
     if helper {
         // The helper, now called nowhere, is still used (no -Wunused-function).
-        let name = src
-            .split_once("int64_t qloop_")
-            .and_then(|(_, r)| r.split_once("_mul64("))
-            .map(|(n, _)| format!("qloop_{n}_mul64"));
+        let name = src.find("_mul64(int32_t a, int32_t b)").and_then(|end| {
+            let start = src[..end].rfind("qloop_")?;
+            Some(format!("{}_mul64", &src[start..end]))
+        });
         if let Some(name) = name {
             let _ = writeln!(
                 out,
