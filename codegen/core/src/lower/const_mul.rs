@@ -269,8 +269,9 @@ impl Lowerer<'_> {
         // Both factors as the compiler sees them: x sign-extended from its own type, m as
         // a constant of the narrowest C type (at least `int`) that holds it.
         let m_bits = (129 - m.unsigned_abs().leading_zeros()).max(self.target.min_work_bits());
-        let operand_bits = xv.ty.bits.max(m_bits.next_power_of_two());
-        let hw_cost = self.target.const_mul_cost(bits, operand_bits);
+        let hw_cost = self
+            .target
+            .const_mul_cost(bits, xv.ty.bits, m_bits.next_power_of_two());
         let hw = net.adders() > 0 && (hw_cost < sa_cost || self.target.force_multiply);
         self.mults.push(MulNote {
             constant: c,

@@ -151,6 +151,11 @@ pub struct Costs {
     /// call-clobbered registers instead. 0 where registers are plentiful.
     #[cfg_attr(feature = "serde", serde(default))]
     pub temp: u32,
+    /// The ISA has no carry flag (RISC-V): a multi-word add or subtract takes, for each word
+    /// after the first, the add itself, a compare that recovers the carry (`SLTU`) and the add
+    /// of it, so a 64-bit add on RV32 is four instructions, not the two of `ADDS`/`ADC`.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub no_carry: bool,
 }
 
 /// Widths of C's integer types on the target.
@@ -233,7 +238,13 @@ impl Target {
 
     /// Cost of an add/sub/compare of `bits` width (carry chain across words).
     pub fn add_cost(&self, bits: u32) -> u32 {
-        let chain = self.costs.add * self.words(bits);
+        let words = self.words(bits);
+        let carries = if self.costs.no_carry {
+            2 * (words - 1)
+        } else {
+            0
+        };
+        let chain = self.costs.add * (words + carries);
         chain
             + if self.libcall(bits) {
                 self.costs.call
@@ -345,11 +356,25 @@ impl Target {
         body + if n > 2 { self.costs.call } else { 0 }
     }
 
-    /// Cost of multiplying a value that fits `operand_bits` by a constant on the multiplier,
-    /// with a `bits`-wide product: the multiply and loading the constant (one immediate load
-    /// per native word).
-    pub fn const_mul_cost(&self, bits: u32, operand_bits: u32) -> u32 {
-        self.widening_mul_cost(bits, operand_bits) + self.costs.add * self.words(bits)
+    /// Cost of multiplying a value of `x_bits` by a constant of `m_bits` (the narrowest C type
+    /// at least `int` that holds it) on the multiplier, with a `bits`-wide product: the
+    /// multiply and loading the constant (one immediate load per native word).
+    ///
+    /// On a widening 32×32→64 multiplier without library calls (Cortex-M4's `UMULL` and
+    /// `MLA`, RV32IMC's `MUL`/`MULHU`), GCC multiplies a 64-bit value by a constant that fits
+    /// 32 bits limb by limb: the low limb's double-width product and the high limb's low
+    /// product, two multiplies and one add, not the three of a 64×64 product. Elsewhere the
+    /// compiler sees both factors at the wider type (avr-gcc's `__muldi3`, `__aeabi_lmul`).
+    pub fn const_mul_cost(&self, bits: u32, x_bits: u32, m_bits: u32) -> u32 {
+        let limbwise = self.multiplier.kind == MulKind::M32x32To64
+            && !self.libcall(bits)
+            && bits == 64
+            && x_bits == 64
+            && m_bits <= 32;
+        if limbwise {
+            return 2 * self.multiplier.cycles + self.add_cost(32) + self.costs.add;
+        }
+        self.widening_mul_cost(bits, x_bits.max(m_bits)) + self.costs.add * self.words(bits)
     }
 
     /// Cost of a shift-add network computing `plan.m · x` on `bits`-wide values: one adder per
@@ -419,6 +444,7 @@ impl Default for Target {
                 call: 4,
                 libcall_bits: 0,
                 temp: 0,
+                no_carry: true,
             },
             c: CTypes {
                 int_bits: 32,
