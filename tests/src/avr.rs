@@ -45,7 +45,7 @@ pub fn matches_the_interpreter(sim: &Simavr, plan: &Plan, cases: &[Case], dir: &
     let want = interpreted(plan, cases);
     let steps: Vec<Vec<i128>> = cases.iter().map(|c| c.inputs.clone()).collect();
     let elf = firmware(plan, &sim.avr_cc, dir, &steps, &[]);
-    let out = run(Command::new(&runner).arg(&elf));
+    let out = simulate(&runner, &elf);
     let got: Vec<Vec<i64>> = out
         .lines()
         .filter_map(|l| l.strip_prefix("out "))
@@ -56,7 +56,6 @@ pub fn matches_the_interpreter(sim: &Simavr, plan: &Plan, cases: &[Case], dir: &
                 .collect()
         })
         .collect();
-    assert!(out.contains("end done-marker "), "{out}");
     assert_eq!(got.len(), want.len(), "steps reported:\n{out}");
     for (k, (g, w)) in got.iter().zip(&want).enumerate() {
         assert_eq!(
@@ -138,31 +137,45 @@ pub fn firmware(
          \x20   for (;;)\n        __asm__ __volatile__(\"cli\\n\\tsleep\" ::: \"memory\");\n}}\n"
     );
     std::fs::write(dir.join("main.c"), m).unwrap();
-    let warn = ["-std=c99", "-Wall", "-Wextra", "-Werror"];
-    let flags = &plan.target.toolchain.cflags;
     let obj = dir.join(format!("{n}.o"));
     run(Command::new(cc)
-        .args(warn)
-        .args(flags)
+        .args(WARN)
+        .args(&plan.target.toolchain.cflags)
         .args(cflags)
         .arg("-c")
         .arg(&c)
         .arg("-o")
         .arg(&obj));
     let elf = dir.join("firmware.elf");
+    link(cc, plan, dir, &[&obj], &elf);
+    elf
+}
+
+/// `dir/main.c` (and `objs`) linked into `elf` with the plan's flags, the firmware protocol's
+/// headers and `dir` on the include path, every warning an error.
+fn link(cc: &Path, plan: &Plan, dir: &Path, objs: &[&Path], elf: &Path) {
     run(Command::new(cc)
-        .args(warn)
-        .args(flags)
+        .args(WARN)
+        .args(&plan.target.toolchain.cflags)
         .arg("-I")
         .arg(root().join("targets/avr/firmware"))
         .arg("-I")
         .arg(dir)
         .arg(dir.join("main.c"))
-        .arg(&obj)
+        .args(objs)
         .arg("-o")
-        .arg(&elf));
-    elf
+        .arg(elf));
 }
+
+/// What the simavr runner printed for `elf`, which must have reached its done marker.
+fn simulate(runner: &Path, elf: &Path) -> String {
+    let out = run(Command::new(runner).arg(elf));
+    assert!(out.contains("end done-marker "), "{out}");
+    out
+}
+
+/// The warning flags of every AVR build here.
+const WARN: [&str; 4] = ["-std=c99", "-Wall", "-Wextra", "-Werror"];
 
 /// A firmware of the plan's C and `main` (a C file that includes `NAME.c`, so it can call the
 /// controller's helpers), built with the plan's flags and run in simavr; what the runner
@@ -172,20 +185,8 @@ pub fn run_program(sim: &Simavr, plan: &Plan, main: &str, dir: &Path) -> String 
     write_c(plan, dir);
     std::fs::write(dir.join("main.c"), main).unwrap();
     let elf = dir.join("program.elf");
-    run(Command::new(&sim.avr_cc)
-        .args(["-std=c99", "-Wall", "-Wextra", "-Werror"])
-        .args(&plan.target.toolchain.cflags)
-        .arg("-I")
-        .arg(root().join("targets/avr/firmware"))
-        .arg("-I")
-        .arg(dir)
-        .arg(dir.join("main.c"))
-        .arg("-o")
-        .arg(&elf));
-    let runner = cycles_runner(&sim.cc, &sim.include, dir);
-    let out = run(Command::new(&runner).arg(&elf));
-    assert!(out.contains("end done-marker "), "{out}");
-    out
+    link(&sim.avr_cc, plan, dir, &[], &elf);
+    simulate(&cycles_runner(&sim.cc, &sim.include, dir), &elf)
 }
 
 /// simavr's headers and library, as `targets/avr/Makefile` looks for them.

@@ -5,9 +5,9 @@
 //! with a hardware multiplier, sixteen 8×8 `MUL`s summed column by column into the eight result
 //! bytes (product scanning), then the two's-complement correction of the high half (minus
 //! `b·2^32` when `a < 0`, minus `a·2^32` when `b < 0`); see [`product_helper`]. Exact: the same
-//! value as the plain C of the `#else` branch, which other compilers and Frama-C see. A call
-//! takes 124 cycles against 209 for avr-gcc's `__mulsidi3` (simavr, the operands' loads and
-//! stores not counted). `tests/tests/c_output.rs` runs it in simavr on edge and random factors
+//! value as the plain C of the `#else` branch, which other compilers and Frama-C see. One
+//! product, its operands loaded from memory and the result stored, takes 158 cycles against
+//! 243 with avr-gcc's `__mulsidi3` (simavr; the loads and stores alone about 30). `tests/tests/c_output.rs` runs it in simavr on edge and random factors
 //! against avr-gcc's `int64_t` product, and in three controllers against the interpreter.
 //!
 //! avr-gcc (5.4, Debian's) compiles every `int64_t` shift as a libgcc call that moves the value
@@ -135,7 +135,8 @@ pub(super) fn product_helper() -> String {
         "/* a * b of int32_t factors, exactly. On an AVR core with MUL: the sixteen byte products\n\
          \x20* summed column by column into the eight result bytes (each column's sum fits three\n\
          \x20* bytes), then the high half corrected for the factors' signs (minus b * 2^32 if\n\
-         \x20* a < 0, minus a * 2^32 if b < 0); 124 cycles against 209 for avr-gcc's __mulsidi3.\n\
+         \x20* a < 0, minus a * 2^32 if b < 0); 158 cycles against 243 for\n\
+         \x20* avr-gcc's __mulsidi3 (simavr, operands from memory).\n\
          \x20* Elsewhere, and for Frama-C, the plain product. */\n\
          #if defined(__GNUC__) && defined(__AVR__) && defined(__AVR_HAVE_MUL__) && !defined(__FRAMAC__)\n\
          static __attribute__((noinline)) int64_t qloop_mul64(int32_t a, int32_t b)\n\
@@ -160,21 +161,16 @@ pub(super) fn product(plan: &Plan, id: ValId) -> Option<String> {
     let Op::Mul(a, b) = v.op else {
         return None;
     };
-    let fits32 = |x: ValId| {
-        let w = plan.val(x);
-        w.lo >= i128::from(i32::MIN) && w.hi <= i128::from(i32::MAX)
-    };
-    (plan.target.libcall(64) && v.ty.bits == 64 && v.ty.signed && fits32(a) && fits32(b)).then(
-        || {
-            format!(
-                "({})qloop_{}_mul64((int32_t){}, (int32_t){})",
-                c_ty(v.ty),
-                plan.prog.name,
-                name(plan, a),
-                name(plan, b)
-            )
-        },
-    )
+    let fits = fits32(plan, a) && fits32(plan, b);
+    (plan.target.libcall(64) && v.ty.bits == 64 && v.ty.signed && fits).then(|| {
+        format!(
+            "({})qloop_{}_mul64((int32_t){}, (int32_t){})",
+            c_ty(v.ty),
+            plan.prog.name,
+            name(plan, a),
+            name(plan, b)
+        )
+    })
 }
 
 /// Whether the step has a product that [`product`] writes.
@@ -189,9 +185,8 @@ pub(super) fn shift(plan: &Plan, id: ValId) -> Option<String> {
     let Op::Shr(a, k) = v.op else {
         return None;
     };
-    let fits32 = v.lo >= i128::from(i32::MIN) && v.hi <= i128::from(i32::MAX);
     let wide = plan.val(a).ty.bits == 64;
-    (plan.target.libcall(64) && wide && fits32 && k > 0 && k < 64).then(|| {
+    (plan.target.libcall(64) && wide && fits32(plan, id) && k > 0 && k < 64).then(|| {
         format!(
             "({})qloop_{}_sar64({}, {k}u)",
             c_ty(v.ty),
@@ -204,4 +199,10 @@ pub(super) fn shift(plan: &Plan, id: ValId) -> Option<String> {
 /// Whether the step has a shift that [`shift`] writes.
 pub(super) fn used(plan: &Plan) -> bool {
     (0..plan.vals.len()).any(|i| shift(plan, ValId(i)).is_some())
+}
+
+/// Whether value `id`'s proved interval fits `int32_t`.
+fn fits32(plan: &Plan, id: ValId) -> bool {
+    let v = plan.val(id);
+    v.lo >= i128::from(i32::MIN) && v.hi <= i128::from(i32::MAX)
 }
