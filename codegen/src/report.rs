@@ -366,6 +366,27 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
         "step: {} add/sub, {} shifts, {} multiplies, {} compare/select, {} divisions",
         c.add, c.shift, c.mul, c.cmp, c.div
     );
+    for r in qloop_core::emit::repeat::find(plan) {
+        let rows: Vec<String> = r
+            .rows
+            .iter()
+            .map(|row| match row.lead {
+                0 => format!("{}[l]", row.group),
+                k => format!("{}[l + {k}]", row.group),
+            })
+            .collect();
+        let _ = writeln!(
+            o,
+            "loop kept as a loop: lines {}-{}, {} indices l: one function in the Rust and the C \
+             (its {} plan statements emitted once, not {} times), on rows {}",
+            r.lines.0,
+            r.lines.1,
+            r.count,
+            r.len,
+            r.count,
+            rows.join(", ")
+        );
+    }
     let _ = writeln!(
         o,
         "Errors are one-step bounds against real arithmetic from the same state and inputs, \

@@ -72,7 +72,7 @@
 #define MARK_RECORD_END 0x05
 #define MARK_DONE 0x0F
 
-#define MAX_VALUES 64
+#define MAX_VALUES 1024
 
 static FILE *out; /* the real stdout; fd 1 is pointed at stderr for libsimavr's chatter */
 static const char *prog = "cycles";

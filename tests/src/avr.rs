@@ -32,7 +32,7 @@ impl Simavr {
     }
 }
 
-/// The plan's ATmega328P firmware run in simavr on `cases` (inputs only, in order, from the
+/// The plan's AVR firmware run in simavr on `cases` (inputs only, in order, from the
 /// initial state): every step's raw outputs and states are the interpreter's. Panics on the
 /// first step that differs; the number of steps compared.
 pub fn matches_the_interpreter(sim: &Simavr, plan: &Plan, cases: &[Case], dir: &Path) -> usize {
@@ -45,7 +45,7 @@ pub fn matches_the_interpreter(sim: &Simavr, plan: &Plan, cases: &[Case], dir: &
     let want = interpreted(plan, cases);
     let steps: Vec<Vec<i128>> = cases.iter().map(|c| c.inputs.clone()).collect();
     let elf = firmware(plan, &sim.avr_cc, dir, &steps, &[]);
-    let out = simulate(&runner, &elf);
+    let out = simulate(plan, &runner, &elf);
     let got: Vec<Vec<i64>> = out
         .lines()
         .filter_map(|l| l.strip_prefix("out "))
@@ -67,7 +67,7 @@ pub fn matches_the_interpreter(sim: &Simavr, plan: &Plan, cases: &[Case], dir: &
     got.len()
 }
 
-/// An ATmega328P firmware (in `dir`) for the simavr runner `targets/avr/cycles.c`: the raw
+/// An AVR firmware (in `dir`; the ATmega328P's or the core the plan's flags name) for the simavr runner `targets/avr/cycles.c`: the raw
 /// inputs of every step in flash, then per step the step between markers and its raw outputs
 /// and states reported as 8-byte values (`targets/avr/firmware/sim_protocol.h`), then the
 /// done marker. Extra `cflags` go to the controller's C only. The ELF's path.
@@ -167,9 +167,17 @@ fn link(cc: &Path, plan: &Plan, dir: &Path, objs: &[&Path], elf: &Path) {
         .arg(elf));
 }
 
-/// What the simavr runner printed for `elf`, which must have reached its done marker.
-fn simulate(runner: &Path, elf: &Path) -> String {
-    let out = run(Command::new(runner).arg(elf));
+/// What the simavr runner printed for `elf`, which must have reached its done marker, on the
+/// core the plan's `-mmcu=` names (the ATmega328P without one).
+fn simulate(plan: &Plan, runner: &Path, elf: &Path) -> String {
+    let mcu = plan
+        .target
+        .toolchain
+        .cflags
+        .iter()
+        .find_map(|f| f.strip_prefix("-mmcu="))
+        .unwrap_or("atmega328p");
+    let out = run(Command::new(runner).arg("--mcu").arg(mcu).arg(elf));
     assert!(out.contains("end done-marker "), "{out}");
     out
 }
@@ -186,7 +194,7 @@ pub fn run_program(sim: &Simavr, plan: &Plan, main: &str, dir: &Path) -> String 
     std::fs::write(dir.join("main.c"), main).unwrap();
     let elf = dir.join("program.elf");
     link(&sim.avr_cc, plan, dir, &[], &elf);
-    simulate(&cycles_runner(&sim.cc, &sim.include, dir), &elf)
+    simulate(plan, &cycles_runner(&sim.cc, &sim.include, dir), &elf)
 }
 
 /// simavr's headers and library, as `targets/avr/Makefile` looks for them.

@@ -220,6 +220,37 @@ fn c_matches_the_interpreter_from_any_state(
 /// from the initial state in simavr: every step's outputs and states are the interpreter's.
 /// (The host runs above build the same C with the host gcc, little-endian too, from any
 /// state.)
+/// The multi-model seed on the ATmega2560 (`targets/atmega2560.toml`: 256 KiB of flash, where
+/// its estimators kept as one loop fit), 200 steps of random raw inputs from the initial state
+/// in simavr: every step's outputs and states are the interpreter's.
+#[test]
+#[ignore = "acceptance tier (docs/book/src/internals/tests.md)"]
+fn the_multi_model_controller_on_the_atmega2560_in_simavr_matches_the_interpreter() {
+    let Some(sim) = avr::Simavr::find() else {
+        return;
+    };
+    let mega = qloop::targets::from_toml(include_str!("../../targets/atmega2560.toml")).unwrap();
+    let plan = qloop::compile_str(
+        include_str!("../../verified/specs/milling_multimodel.qloop"),
+        &mega,
+    )
+    .unwrap();
+    assert!(qloop::gen_c(&plan).1.contains("milling_multimodel_loop_0("));
+    let inputs = ids(&plan, SigKind::Input);
+    let mut rng = Rng(0x2560);
+    let cases: Vec<Case> = (0..200)
+        .map(|_| Case {
+            states: None,
+            inputs: inputs
+                .iter()
+                .map(|id| raw_input(&plan, *id, &mut rng))
+                .collect(),
+        })
+        .collect();
+    let dir = scratch("c-avr-simavr-mega-multimodel");
+    assert_eq!(avr::matches_the_interpreter(&sim, &plan, &cases, &dir), 200);
+}
+
 #[test]
 fn avr_c_in_simavr_matches_the_interpreter() {
     let Some(sim) = avr::Simavr::find() else {

@@ -16,6 +16,7 @@ mod features;
 mod firmware;
 mod kani_snapshots;
 mod linuxcnc;
+mod loops;
 mod macro_dependencies;
 mod macro_matches_cli;
 mod multimodel;

@@ -132,12 +132,6 @@ fn mnemonic(line: &str) -> String {
         .to_lowercase()
 }
 
-/// Disassembly of the function called exactly `symbol` (a Rust symbol's `::h…` hash ignored),
-/// with relocations.
-fn functions(objdump: &Path, obj: &Path, symbol: &str) -> Vec<String> {
-    function_in(&disassemble(objdump, obj), symbol)
-}
-
 /// The whole object's disassembly, with relocations and demangled names.
 fn disassemble(objdump: &Path, obj: &Path) -> String {
     run(Command::new(objdump)
@@ -288,7 +282,20 @@ fn check_c(stem: &str, target: &str) {
     // `warning_free` wrote the C under the controller's name.
     let c = std::fs::read_to_string(dir.join(format!("{}.c", plan.prog.name))).unwrap();
     let step = format!("{stem}_step");
-    let asm = functions(&od, &obj, &step);
+    // The step and the loop bodies it calls (a body GCC inlined into the step has no symbol).
+    let em = qloop::emit::repeat::emit(&plan);
+    let loops: Vec<String> = (0..em.repeats.len())
+        .map(|k| format!("{stem}_loop_{k}"))
+        .collect();
+    let code = |obj: &Path| {
+        let d = disassemble(&od, obj);
+        let mut lines = function_in(&d, &step);
+        for f in &loops {
+            lines.extend(function_in(&d, f));
+        }
+        lines
+    };
+    let asm = code(&obj);
     assert!(!asm.is_empty(), "{stem}/{target}: no {step} in the object");
     let divs: Vec<&String> = asm.iter().filter(|l| is_div(l)).collect();
     assert!(
@@ -300,14 +307,14 @@ fn check_c(stem: &str, target: &str) {
     let (opaque, n) = opaque_multiplies(&c);
     assert_eq!(
         n,
-        op_counts(&plan).mul,
+        emitted_muls(&em),
         "{stem}/{target}: replaced multiplies vs the plan's count"
     );
     let src2 = dir.join(format!("{stem}_opaque.c"));
     std::fs::write(&src2, opaque).unwrap();
     let obj2 = dir.join("step_opaque.o");
     compile_c(&cc, &t.toolchain.cflags, &src2, &obj2);
-    let asm2 = functions(&od, &obj2, &step);
+    let asm2 = code(&obj2);
     let muls: Vec<&String> = asm2
         .iter()
         .enumerate()
@@ -328,6 +335,21 @@ fn check_c(stem: &str, target: &str) {
         calls, n,
         "{stem}/{target}: calls to the opaque multiply vs the plan's multiplies"
     );
+}
+
+/// The multiplies of the plan's statements the C writes: each shared loop body once.
+fn emitted_muls(em: &qloop::emit::repeat::Emit) -> usize {
+    use qloop::lower::lir::{LStmt, Op};
+    let mut n = 0;
+    let mut stack: Vec<&LStmt> = em.emitted();
+    while let Some(s) = stack.pop() {
+        match s {
+            LStmt::Def(v) => n += usize::from(matches!(em.plan.val(*v).op, Op::Mul(..))),
+            LStmt::Store(..) => {}
+            LStmt::If(_, t, e) => stack.extend(t.iter().chain(e)),
+        }
+    }
+    n
 }
 
 /// The seed spec's C compiles without a warning, and has no division and no unplanned

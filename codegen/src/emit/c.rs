@@ -43,6 +43,7 @@ use crate::ir::{Program, SigId, SigKind};
 use crate::lower::lir::{LStmt, Op, ValId};
 use crate::lower::Plan;
 use crate::qformat::IntTy;
+use qloop_core::emit::repeat::{self, Emit, Param, Repeat, Row, Sync};
 use std::fmt::Write;
 
 mod wide;
@@ -301,6 +302,10 @@ pub fn single_unit(plan: &Plan) -> String {
 
 /// `NAME.c` up to the end of `step`; `include`: with its `#include "NAME.h"`.
 fn body(plan: &Plan, include: bool) -> String {
+    // The step's shared loop bodies, and the plan with their values' hulled intervals: the
+    // whole unit is emitted from it (it differs from `plan` only in those intervals).
+    let em = repeat::emit(plan);
+    let plan = &em.plan;
     let p = &plan.prog;
     let (n, up) = (&p.name, upper(plan));
     let states = ids(plan, SigKind::State);
@@ -342,6 +347,9 @@ fn body(plan: &Plan, include: bool) -> String {
         o.push_str(&wide::product_helper().replace("qloop_", &format!("qloop_{n}_")));
     }
     o.push_str(&table_arrays(plan));
+    for (k, r) in em.repeats.iter().enumerate() {
+        o.push_str(&loop_fn(plan, k, r));
+    }
     let _ = writeln!(o, "void {n}_init({n}_state *self)\n{{");
     for id in &states {
         let q = plan.format(*id);
@@ -400,7 +408,8 @@ fn body(plan: &Plan, include: bool) -> String {
     if !plan.vals.iter().any(|v| matches!(v.op, Op::Input(_))) {
         let _ = writeln!(o, "    (void)in;");
     }
-    for id in &states {
+    let sync = em.sync();
+    for id in states.iter().filter(|s| !sync.unnamed.contains(s)) {
         let (f, path) = (ident(&p.sig(*id).name), field(p, *id));
         let _ = writeln!(o, "    {} {f} = self->{path};", c_ty(plan.format(*id).ty));
     }
@@ -408,8 +417,20 @@ fn body(plan: &Plan, include: bool) -> String {
         let f = ident(&p.sig(*id).name);
         let _ = writeln!(o, "    {} {f} = 0;", c_ty(plan.format(*id).ty));
     }
-    block(plan, &plan.body, 1, &mut o);
-    for id in &states {
+    let mut i = 0;
+    while i < plan.body.len() {
+        match em.repeats.iter().position(|r| r.start == i) {
+            Some(k) => {
+                loop_call(&em, &sync, k, &mut o);
+                i = em.repeats[k].run().end;
+            }
+            None => {
+                block(plan, &plan.body[i..=i], 1, &mut o);
+                i += 1;
+            }
+        }
+    }
+    for id in states.iter().filter(|s| !sync.current.contains(s)) {
         let (f, path) = (ident(&p.sig(*id).name), field(p, *id));
         let _ = writeln!(o, "    self->{path} = {f};");
     }
@@ -486,6 +507,164 @@ fn eva_interval(ty: IntTy, lo: i128, hi: i128) -> String {
         c_lit(lo, w),
         c_lit(hi, w)
     )
+}
+
+/// The name of the function of shared loop body `k`.
+fn loop_name(plan: &Plan, k: usize) -> String {
+    format!("{}_loop_{k}", plan.prog.name)
+}
+
+/// A row's parameter: `int32_t thf[5]`, `int32_t P[5][5]`, or `int32_t *t0` for a row that
+/// is one element.
+fn row_param(plan: &Plan, r: &Row) -> String {
+    let ty = c_ty(plan.format(r.elems[0]).ty);
+    let g = ident(&r.group);
+    if r.dims.len() == 1 {
+        return format!("{ty} *{g}");
+    }
+    let mut d = format!("{ty} {g}");
+    for n in &r.dims[1..] {
+        let _ = write!(d, "[{n}]");
+    }
+    d
+}
+
+/// Element `s` (of the first copy) of row `r`, read through the row's parameter.
+fn row_elem(plan: &Plan, r: &Row, s: SigId) -> String {
+    let g = ident(&r.group);
+    let Some(e) = &plan.prog.sig(s).elem else {
+        return g;
+    };
+    if e.index.len() == 1 {
+        return format!("(*{g})");
+    }
+    let mut x = g;
+    for i in &e.index[1..] {
+        let _ = write!(x, "[{i}]");
+    }
+    x
+}
+
+/// Shared loop body `k` as a `static` function: the first copy's statements on the rows of
+/// the state it is called with (see [`repeat`]).
+fn loop_fn(plan: &Plan, k: usize, r: &Repeat) -> String {
+    let p = &plan.prog;
+    let mut params: Vec<String> = Vec::new();
+    if r.reads_inputs(plan) {
+        params.push(format!("const {}_inputs *in", p.name));
+    }
+    params.extend(r.rows.iter().map(|row| row_param(plan, row)));
+    for q in &r.params {
+        params.push(match *q {
+            Param::Val(v) => {
+                let val = plan.val(v);
+                let ty = if val.boolean {
+                    "bool".to_string()
+                } else {
+                    c_ty(val.ty)
+                };
+                format!("const {ty} {}", name(plan, v))
+            }
+            Param::Sig(s) => format!(
+                "const {} {}",
+                c_ty(plan.format(s).ty),
+                ident(&p.sig(s).name)
+            ),
+        });
+    }
+    if params.is_empty() {
+        params.push("void".into());
+    }
+    let mut o = comment(&format!(
+        "Lines {}-{} of the spec, the body of a `for` loop, once for its {} indices: step calls\n\
+         it on row l of each state it updates. Its values' intervals are the hull of every\n\
+         index's.",
+        r.lines.0, r.lines.1, r.count
+    ));
+    let _ = writeln!(
+        o,
+        "static void {}({})\n{{",
+        loop_name(plan, k),
+        params.join(", ")
+    );
+    for row in &r.rows {
+        for s in &row.elems {
+            let _ = writeln!(
+                o,
+                "    {} {} = {};",
+                c_ty(plan.format(*s).ty),
+                ident(&p.sig(*s).name),
+                row_elem(plan, row, *s)
+            );
+        }
+    }
+    block(plan, r.body(plan), 1, &mut o);
+    for row in &r.rows {
+        for s in &row.stored {
+            let _ = writeln!(
+                o,
+                "    {} = {};",
+                row_elem(plan, row, *s),
+                ident(&p.sig(*s).name)
+            );
+        }
+    }
+    o.push_str("}\n\n");
+    o
+}
+
+/// The call of shared loop body `k` in `step`, between the writes and reads of the step's
+/// locals that [`Emit::sync`] asks for.
+fn loop_call(em: &Emit, sync: &Sync, k: usize, o: &mut String) {
+    let plan = &em.plan;
+    let p = &plan.prog;
+    let r = &em.repeats[k];
+    for e in &sync.before[k] {
+        let _ = writeln!(
+            o,
+            "    self->{} = {};",
+            field(p, *e),
+            ident(&p.sig(*e).name)
+        );
+    }
+    let mut args: Vec<String> = Vec::new();
+    if r.reads_inputs(plan) {
+        args.push("in".into());
+    }
+    for row in &r.rows {
+        let at = if row.lead == 0 {
+            "qloop_l".to_string()
+        } else {
+            format!("qloop_l + {}", row.lead)
+        };
+        let g = ident(&row.group);
+        args.push(if row.dims.len() == 1 {
+            format!("&self->{g}[{at}]")
+        } else {
+            format!("self->{g}[{at}]")
+        });
+    }
+    for q in &r.params {
+        args.push(match *q {
+            Param::Val(v) => name(plan, v),
+            Param::Sig(s) => ident(&p.sig(s).name),
+        });
+    }
+    let _ = writeln!(
+        o,
+        "    for (int qloop_l = 0; qloop_l < {}; ++qloop_l) {{\n        {}({});\n    }}",
+        r.count,
+        loop_name(plan, k),
+        args.join(", ")
+    );
+    for e in &sync.after[k] {
+        let _ = writeln!(
+            o,
+            "    {} = self->{};",
+            ident(&p.sig(*e).name),
+            field(p, *e)
+        );
+    }
 }
 
 fn indent(depth: usize) -> String {

@@ -3,6 +3,7 @@
 
 pub mod kani;
 pub mod reference;
+pub mod repeat;
 pub mod rust;
 
 use crate::ir::{Program, SigId, SigKind};

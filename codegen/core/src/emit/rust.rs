@@ -7,6 +7,7 @@
 //! overflow check that fired would expose a wrong proof. `fixed` crate types carry the values
 //! across the API.
 
+use super::repeat::{Emit, Param, Repeat, Row, Sync};
 use super::Member;
 use crate::ir::{SigId, SigKind};
 use crate::lower::lir::{LStmt, Op, ValId};
@@ -17,16 +18,33 @@ use quote::{format_ident, quote, ToTokens};
 
 /// The generated module for `plan`.
 pub fn module(plan: &Plan) -> TokenStream {
+    // The step's shared loop bodies, and the plan with their values' hulled intervals (the
+    // module is emitted from it; it differs from `plan` only in those intervals).
+    let em = super::repeat::emit(plan);
+    let plan = &em.plan;
     let prog = &plan.prog;
     let modname = format_ident!("{}", prog.name);
-    let doc = super::module_doc(plan, "fixed-point controller");
+    let mut doc = super::module_doc(plan, "fixed-point controller");
+    if !plan.var_products().is_empty() {
+        doc.push_str(
+            "\nEach product of two non-constant values is an always-inlined function \
+             `qloop_mul_<n>`, so that the proof harnesses (`qloop gen --lang kani`) can replace \
+             it by a verified abstraction (`kani::stub`); the object code is the plain multiply.\n",
+        );
+    }
+    if !em.repeats.is_empty() {
+        doc.push_str(
+            "\nEach `qloop_loop_<k>` is the body of a `for` loop, once for all its indices: \
+             `step` calls it on one row of each state it updates per index.\n",
+        );
+    }
     let sigs = Sigs::new(plan);
     let structs = api_structs(plan, &sigs);
     let tables = super::signal_tables(plan);
     let controller = controller_struct(plan, &sigs);
     let state_api = state_methods(plan, &sigs);
     let bits_api = bits_methods(plan, &sigs);
-    let step = step_method(plan, &sigs);
+    let step = step_method(&em, &sigs);
     let allows = super::allowed_lints();
     let period_us = Literal::u64_suffixed((prog.period * 1e6).round() as u64);
     let keep = if plan.vals.iter().any(|v| v.network) {
@@ -34,7 +52,12 @@ pub fn module(plan: &Plan) -> TokenStream {
     } else {
         quote! {}
     };
-    let muls = plan.var_products().into_iter().map(|id| mul_fn(plan, id));
+    let muls = em.var_products().into_iter().map(|id| mul_fn(plan, id));
+    let loops = em
+        .repeats
+        .iter()
+        .enumerate()
+        .map(|(k, r)| loop_fn(plan, k, r));
     let table_items = table_arrays(plan);
     quote! {
         #[doc = #doc]
@@ -45,6 +68,8 @@ pub fn module(plan: &Plan) -> TokenStream {
             #table_items
 
             #(#muls)*
+
+            #(#loops)*
 
             #structs
 
@@ -262,23 +287,47 @@ fn bits_methods(plan: &Plan, sigs: &Sigs) -> TokenStream {
     }
 }
 
-/// `step`: loads the states, runs the plan's body, saves the states, returns the outputs.
-fn step_method(plan: &Plan, sigs: &Sigs) -> TokenStream {
-    let load_states = sigs.states.iter().map(|id| {
-        let (name, p) = (ident(plan, *id), path(plan, *id));
-        let ty = int_ty(plan.format(*id).ty);
-        quote! { let mut #name: #ty = self.#p; }
-    });
+/// `step`: loads the states, runs the plan's body (its shared loop bodies as calls), saves
+/// the states, returns the outputs.
+fn step_method(em: &Emit, sigs: &Sigs) -> TokenStream {
+    let plan = &em.plan;
+    let sync = em.sync();
+    let load_states = sigs
+        .states
+        .iter()
+        .filter(|s| !sync.unnamed.contains(s))
+        .map(|id| {
+            let (name, p) = (ident(plan, *id), path(plan, *id));
+            let ty = int_ty(plan.format(*id).ty);
+            quote! { let mut #name: #ty = self.#p; }
+        });
     let decl_outputs = sigs.outputs.iter().map(|id| {
         let name = ident(plan, *id);
         let ty = int_ty(plan.format(*id).ty);
         quote! { let mut #name: #ty = 0; }
     });
-    let body = block(plan, &plan.body);
-    let save_states = sigs.states.iter().map(|id| {
-        let (name, p) = (ident(plan, *id), path(plan, *id));
-        quote! { self.#p = #name; }
-    });
+    let mut body = TokenStream::new();
+    let mut i = 0;
+    while i < plan.body.len() {
+        match em.repeats.iter().position(|r| r.start == i) {
+            Some(k) => {
+                body.extend(loop_call(em, &sync, k));
+                i = em.repeats[k].run().end;
+            }
+            None => {
+                body.extend(block(plan, &plan.body[i..=i]));
+                i += 1;
+            }
+        }
+    }
+    let save_states = sigs
+        .states
+        .iter()
+        .filter(|s| !sync.current.contains(s))
+        .map(|id| {
+            let (name, p) = (ident(plan, *id), path(plan, *id));
+            quote! { self.#p = #name; }
+        });
     let ret = sigs.out_fields.iter().map(|m| {
         init_field(plan, m, |id| {
             let name = ident(plan, id);
@@ -302,6 +351,148 @@ fn step_method(plan: &Plan, sigs: &Sigs) -> TokenStream {
             #(#save_states)*
             Outputs { #(#ret)* }
         }
+    }
+}
+
+/// The name of the function of shared loop body `k`.
+fn loop_name(k: usize) -> Ident {
+    format_ident!("qloop_loop_{k}")
+}
+
+/// Element `s` (of the first copy) of row `r`, through the row's reference: `thf[0]`,
+/// `P[1][2]`, or `*t0` for a row that is one element.
+fn row_elem(plan: &Plan, r: &Row, s: SigId) -> TokenStream {
+    let g = format_ident!("{}", r.group);
+    let index = plan
+        .prog
+        .sig(s)
+        .elem
+        .as_ref()
+        .map(|e| e.index[1..].to_vec())
+        .unwrap_or_default();
+    if index.is_empty() {
+        return quote! { *#g };
+    }
+    let idx = index.iter().map(|i| Literal::usize_unsuffixed(*i));
+    quote! { #g #([#idx])* }
+}
+
+/// Shared loop body `k` as a function: the first copy's statements on the rows of the state
+/// it is called with (see [`super::repeat`]).
+fn loop_fn(plan: &Plan, k: usize, r: &Repeat) -> TokenStream {
+    let mut params = Vec::new();
+    if r.reads_inputs(plan) {
+        params.push(quote! { inputs: &Inputs });
+    }
+    for row in &r.rows {
+        let g = format_ident!("{}", row.group);
+        let elem = int_ty(plan.format(row.elems[0]).ty).into_token_stream();
+        let ty = super::array_ty(&row.dims[1..], elem);
+        params.push(quote! { #g: &mut #ty });
+    }
+    for q in &r.params {
+        params.push(match *q {
+            Param::Val(v) => {
+                let name = val_name(plan, v);
+                let val = plan.val(v);
+                if val.boolean {
+                    quote! { #name: bool }
+                } else {
+                    let ty = int_ty(val.ty);
+                    quote! { #name: #ty }
+                }
+            }
+            Param::Sig(s) => {
+                let (name, ty) = (ident(plan, s), int_ty(plan.format(s).ty));
+                quote! { #name: #ty }
+            }
+        });
+    }
+    let loads = r.rows.iter().flat_map(|row| {
+        row.elems.iter().map(move |s| {
+            let (name, ty) = (ident(plan, *s), int_ty(plan.format(*s).ty));
+            let e = row_elem(plan, row, *s);
+            quote! { let mut #name: #ty = #e; }
+        })
+    });
+    let stores = r.rows.iter().flat_map(|row| {
+        row.stored.iter().map(move |s| {
+            let name = ident(plan, *s);
+            let e = row_elem(plan, row, *s);
+            quote! { #e = #name; }
+        })
+    });
+    let body = block(plan, r.body(plan));
+    let name = loop_name(k);
+    let doc = format!(
+        " Lines {}-{} of the spec, the body of a `for` loop, once for its {} indices: `step` \
+         calls it on row `l` of each state it updates. Its values' intervals are the hull of \
+         every index's.",
+        r.lines.0, r.lines.1, r.count
+    );
+    quote! {
+        #[doc = #doc]
+        #[allow(clippy::too_many_arguments)]
+        fn #name(#(#params),*) {
+            #(#loads)*
+            #body
+            #(#stores)*
+        }
+    }
+}
+
+/// The call of shared loop body `k` in `step`, between the writes and reads of the step's
+/// locals that [`Emit::sync`] asks for; the rows come from iterators (no indexing).
+fn loop_call(em: &Emit, sync: &Sync, k: usize) -> TokenStream {
+    let plan = &em.plan;
+    let r = &em.repeats[k];
+    let sync_before = sync.before[k].iter().map(|e| {
+        let (name, p) = (ident(plan, *e), path(plan, *e));
+        quote! { self.#p = #name; }
+    });
+    let reload = sync.after[k].iter().map(|e| {
+        let (name, p) = (ident(plan, *e), path(plan, *e));
+        quote! { #name = self.#p; }
+    });
+    let count = Literal::usize_unsuffixed(r.count);
+    let mut iter = TokenStream::new();
+    let mut pat = TokenStream::new();
+    for (j, row) in r.rows.iter().enumerate() {
+        let g = format_ident!("{}", row.group);
+        let skip = (row.lead > 0).then(|| {
+            let n = Literal::usize_unsuffixed(row.lead);
+            quote! { .skip(#n) }
+        });
+        let it = quote! { self.#g.iter_mut() #skip };
+        if j == 0 {
+            iter = quote! { #it.take(#count) };
+            pat = quote! { #g };
+        } else {
+            iter = quote! { #iter.zip(#it) };
+            pat = quote! { (#pat, #g) };
+        }
+    }
+    let mut args = Vec::new();
+    if r.reads_inputs(plan) {
+        args.push(quote! { &inputs });
+    }
+    for row in &r.rows {
+        let g = format_ident!("{}", row.group);
+        args.push(quote! { #g });
+    }
+    for q in &r.params {
+        args.push(match *q {
+            Param::Val(v) => val_name(plan, v).into_token_stream(),
+            Param::Sig(s) => ident(plan, s).into_token_stream(),
+        });
+    }
+    let name = loop_name(k);
+    quote! {
+        #(#sync_before)*
+        for #pat in #iter {
+            #name(#(#args),*);
+        }
+        #(#reload)*
     }
 }
 
@@ -339,10 +530,11 @@ fn mul_fn(plan: &Plan, id: ValId) -> TokenStream {
     };
     let (va, vb) = (plan.val(a), plan.val(b));
     let name = mul_fn_name(id);
+    // Short: a large spec has hundreds; why they are functions is said once, in the module
+    // doc.
     let doc = format!(
-        " The step's product `{} = {} * {}`: factors in [{}, {}] and [{}, {}] (raw). A function \
-         only so that proof harnesses can replace it (`kani::stub`); always inlined, so the \
-         object code is the plain multiply.",
+        " `{} = {} * {}`, factors in [{}, {}] and [{}, {}] (raw); a function for `kani::stub`, \
+         inlined.",
         val_name(plan, id),
         val_name(plan, a),
         val_name(plan, b),

@@ -167,11 +167,27 @@ pub(super) fn runner() -> CliResult<PathBuf> {
     )))
 }
 
-/// Runs the ELF in simavr; exact cycles per step and the reported outputs.
-pub(super) fn run(runner: &Path, elf: &Path, v: &Variant, steps: usize) -> CliResult<Measured> {
+/// The simavr core of target `t`: its `-mmcu=` flag's device (`atmega328p` without one).
+pub(super) fn mcu(t: &qloop::Target) -> String {
+    t.toolchain
+        .cflags
+        .iter()
+        .find_map(|f| f.strip_prefix("-mmcu="))
+        .unwrap_or("atmega328p")
+        .to_string()
+}
+
+/// Runs the ELF in simavr on core `mcu`; exact cycles per step and the reported outputs.
+pub(super) fn run(
+    runner: &Path,
+    mcu: &str,
+    elf: &Path,
+    v: &Variant,
+    steps: usize,
+) -> CliResult<Measured> {
     let dir = elf.parent().unwrap_or(Path::new("."));
     let (status, out, err) = run_limited(
-        Command::new(runner).arg(elf),
+        Command::new(runner).arg("--mcu").arg(mcu).arg(elf),
         "the simavr cycle runner",
         &dir.join("simavr.out"),
         &dir.join("simavr.err"),

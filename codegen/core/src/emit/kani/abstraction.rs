@@ -48,6 +48,7 @@
 
 use super::exact::Ev;
 use super::show::spaced;
+use crate::emit::repeat::Emit;
 use crate::ir::{PCond, PExpr, SigId, SigKind};
 use crate::lower::lir::{LStmt, Op, ValId};
 use crate::lower::Plan;
@@ -111,6 +112,8 @@ struct Product {
     clauses: Clauses,
     /// What it multiplies, for docs and messages.
     what: String,
+    /// Calls of it in the step: one, or one per index of a shared loop body.
+    calls: usize,
 }
 
 impl Product {
@@ -153,6 +156,9 @@ struct StepFactors {
     val: ValId,
     a: Option<SigId>,
     b: Option<SigId>,
+    /// Its abstraction in [`Abstraction::products`]: the first copy's product where a loop
+    /// body is shared.
+    product: usize,
 }
 
 /// The products of one harness module.
@@ -174,32 +180,42 @@ pub(super) struct Abstraction<'p> {
 
 impl<'p> Abstraction<'p> {
     /// The step's products of `plan`, none used yet.
-    pub(super) fn new(plan: &'p Plan) -> Abstraction<'p> {
+    ///
+    /// `em` says which products a shared loop body computes for all its indices: those are
+    /// one function of the module (the first copy's), with one abstraction over the hull of
+    /// the copies' factor intervals (`em.plan`'s, which `plan` must be).
+    pub(super) fn new(plan: &'p Plan, em: &Emit) -> Abstraction<'p> {
         let mut step = Vec::new();
         step_factors(plan, &plan.body, &mut HashSet::new(), &mut step);
-        let products = step
-            .iter()
-            .map(|f| {
-                let v = plan.val(f.val);
-                let Op::Mul(a, b) = v.op else {
-                    unreachable!("a var product is a Mul")
-                };
-                let (va, vb) = (plan.val(a), plan.val(b));
-                Product {
-                    step: Some(f.val),
-                    n: 0,
-                    ty: v.ty,
-                    x: (va.lo, va.hi),
-                    y: (vb.lo, vb.hi),
-                    clauses: Clauses::Sign,
-                    what: format!(
-                        "the step's `{} * {}`",
-                        factor_name(plan, f.a, a),
-                        factor_name(plan, f.b, b)
-                    ),
-                }
-            })
-            .collect();
+        let mut products: Vec<Product> = Vec::new();
+        for f in &mut step {
+            let rep = em.representative(f.val);
+            if let Some(i) = products.iter().position(|p| p.step == Some(rep)) {
+                products[i].calls += 1;
+                f.product = i;
+                continue;
+            }
+            let v = plan.val(rep);
+            let Op::Mul(a, b) = v.op else {
+                unreachable!("a var product is a Mul")
+            };
+            let (va, vb) = (plan.val(a), plan.val(b));
+            f.product = products.len();
+            products.push(Product {
+                step: Some(rep),
+                n: 0,
+                ty: v.ty,
+                x: (va.lo, va.hi),
+                y: (vb.lo, vb.hi),
+                clauses: Clauses::Sign,
+                what: format!(
+                    "the step's `{} * {}`",
+                    factor_name(plan, f.a, a),
+                    factor_name(plan, f.b, b)
+                ),
+                calls: 1,
+            });
+        }
         Abstraction {
             plan,
             ctl: format_ident!("{}", plan.prog.name),
@@ -345,7 +361,7 @@ impl<'p> Abstraction<'p> {
         } else {
             (ty, tx)
         };
-        let p = &mut self.products[i];
+        let p = &mut self.products[self.step[i].product];
         p.clauses = Clauses::Full;
         let f = format_ident!("abs_{}", p.tag());
         let t = ty_tokens(p.ty);
@@ -386,6 +402,7 @@ impl<'p> Abstraction<'p> {
                     y,
                     clauses,
                     what,
+                    calls: 1,
                 });
                 self.products.len() - 1
             }
@@ -464,28 +481,57 @@ impl<'p> Abstraction<'p> {
                 p.clauses_text(),
                 tag
             ));
-            out.extend(quote! {
-                #[cfg(kani)]
-                static mut #memo: Option<(#t, #t, #t)> = None;
-                #[doc = #doc]
-                #[cfg(kani)]
-                fn #abs(a: #t, b: #t) -> #t {
-                    kani::assert((#xl..=#xu).contains(&a), #msg_a);
-                    kani::assert((#yl..=#yu).contains(&b), #msg_b);
-                    if let Some((x, y, r)) = unsafe { #memo } {
-                        if x == a && y == b {
-                            return r;
+            if p.calls == 1 {
+                out.extend(quote! {
+                    #[cfg(kani)]
+                    static mut #memo: Option<(#t, #t, #t)> = None;
+                    #[doc = #doc]
+                    #[cfg(kani)]
+                    fn #abs(a: #t, b: #t) -> #t {
+                        kani::assert((#xl..=#xu).contains(&a), #msg_a);
+                        kani::assert((#yl..=#yu).contains(&b), #msg_b);
+                        if let Some((x, y, r)) = unsafe { #memo } {
+                            if x == a && y == b {
+                                return r;
+                            }
                         }
+                        let r: #t = kani::any();
+                        let (x, y, z) = (a as #w, b as #w, r as #w);
+                        #(#assumes)*
+                        unsafe {
+                            #memo = Some((a, b, r));
+                        }
+                        r
                     }
-                    let r: #t = kani::any();
-                    let (x, y, z) = (a as #w, b as #w, r as #w);
-                    #(#assumes)*
-                    unsafe {
-                        #memo = Some((a, b, r));
+                });
+            } else {
+                // One call per index of a shared loop body: a slot per call, so that the
+                // property's product meets the step's of its own index.
+                let n = Literal::usize_unsuffixed(p.calls);
+                out.extend(quote! {
+                    #[cfg(kani)]
+                    static mut #memo: [Option<(#t, #t, #t)>; #n] = [None; #n];
+                    #[doc = #doc]
+                    #[cfg(kani)]
+                    fn #abs(a: #t, b: #t) -> #t {
+                        kani::assert((#xl..=#xu).contains(&a), #msg_a);
+                        kani::assert((#yl..=#yu).contains(&b), #msg_b);
+                        let memo = unsafe { &mut *::core::ptr::addr_of_mut!(#memo) };
+                        for (x, y, r) in memo.iter().flatten() {
+                            if *x == a && *y == b {
+                                return *r;
+                            }
+                        }
+                        let r: #t = kani::any();
+                        let (x, y, z) = (a as #w, b as #w, r as #w);
+                        #(#assumes)*
+                        if let Some(slot) = memo.iter_mut().find(|s| s.is_none()) {
+                            *slot = Some((a, b, r));
+                        }
+                        r
                     }
-                    r
-                }
-            });
+                });
+            }
             for c in clauses {
                 let name = format_ident!("lemma_{}_{}", tag, clause_name(c));
                 let e = clause(c, p);
@@ -553,6 +599,7 @@ fn step_factors(
                         val: *id,
                         a: atom_of(plan, a, stored),
                         b: atom_of(plan, b, stored),
+                        product: 0,
                     });
                 }
             }

@@ -94,6 +94,9 @@ type Skipped = Vec<(String, String)>;
 /// The harness module for `plan`, named `<spec>_proofs`, to be placed next to the fixed-point
 /// module (it refers to `super::<spec>`).
 pub fn module(plan: &Plan) -> TokenStream {
+    // Shared loop bodies: their products are one function each, over the copies' hull.
+    let em = crate::emit::repeat::emit(plan);
+    let plan = &em.plan;
     let prog = &plan.prog;
     let modname = format_ident!("{}_proofs", prog.name);
     let target = format_ident!("{}", prog.name);
@@ -103,7 +106,7 @@ pub fn module(plan: &Plan) -> TokenStream {
     let ranges = overflow::harness(plan, &sigs);
     let initial = initial::harness(plan, &sigs, &invs);
     let inv_harnesses = invariant::harnesses(plan, &sigs, &invs, &mut skipped);
-    let abs = std::cell::RefCell::new(abstraction::Abstraction::new(plan));
+    let abs = std::cell::RefCell::new(abstraction::Abstraction::new(plan, &em));
     let mut abstracted = Vec::new();
     let prop_harnesses =
         property::harnesses(plan, &sigs, &invs, &mut skipped, &mut abstracted, &abs);
