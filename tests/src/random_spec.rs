@@ -14,6 +14,9 @@
 //! * (issue 35) a table of `(v + C)·(v + C) − C·C` with `C` up to 1e8, which cancels in f64,
 //!   called on `a`; and an input vector `v` of 1 or 33 elements (past the standard
 //!   library's 32 for `Default` on arrays), its first and last elements summed into `y`.
+//! * (issue 37) a bank: a state `w[N][2]` (N from 2 to 4) updated by a `for j in 0..N` loop
+//!   whose body reads the inputs, the states and its own row, so that the emitters may keep it
+//!   as one function (`qloop_core::emit::repeat`), its first row read after the loop.
 
 use proptest::prelude::*;
 
@@ -240,6 +243,8 @@ struct Shape {
     table: Option<(u32, u32)>,
     /// The input vector's length, if the spec has one.
     vector: Option<usize>,
+    /// The bank's rows, if the spec has one.
+    bank: Option<usize>,
 }
 
 fn shape() -> BoxedStrategy<Shape> {
@@ -251,9 +256,10 @@ fn shape() -> BoxedStrategy<Shape> {
         prop::sample::select(vec![16u32, 32, 32, 32, 64]),
         prop::option::weighted(0.2, (0u32..=8, 2u32..=5)),
         prop::option::weighted(0.2, prop::sample::select(vec![1usize, 33])),
+        prop::option::weighted(0.25, 2usize..=4),
     )
         .prop_map(
-            |((a, b), (s, t, n), z, nearest, word, table, vector)| Shape {
+            |((a, b), (s, t, n), z, nearest, word, table, vector, bank)| Shape {
                 inputs: vec![a, b],
                 states: [s, t].into_iter().take(n).collect(),
                 z,
@@ -261,6 +267,7 @@ fn shape() -> BoxedStrategy<Shape> {
                 word,
                 table,
                 vector,
+                bank,
             },
         )
         .boxed()
@@ -273,13 +280,17 @@ pub fn spec() -> impl Strategy<Value = RandomSpec> {
         leaves.extend(sh.states.iter().map(|d| d.name));
         let decls: Vec<Decl> = sh.inputs.iter().chain(&sh.states).cloned().collect();
         let (deep, shallow) = (expr(leaves.clone(), 2), expr(leaves.clone(), 1));
+        let mut row = leaves.clone();
+        row.extend(["w[j][0]", "w[j][1]"]);
+        let in_row = expr(row, 2);
         (
             (deep.clone(), deep.clone(), deep.clone()),
             (deep, shallow.clone(), shallow),
             (cond(leaves.clone(), decls.clone()), cond(leaves, decls)),
             (any::<bool>(), constant()),
+            (in_row.clone(), in_row.clone(), in_row.clone(), in_row),
         )
-            .prop_map(move |((e0, e1, e2), (e3, e4, e5), (c0, c1), (acc, k))| {
+            .prop_map(move |((e0, e1, e2), (e3, e4, e5), (c0, c1), (acc, k), (r0, r1, r2, r3))| {
                 let decl = |kw: &str, d: &Decl| {
                     let init = if kw == "state" {
                         format!(" = {}", lit((d.range.0 + d.range.1) * 0.5))
@@ -315,6 +326,9 @@ pub fn spec() -> impl Strategy<Value = RandomSpec> {
                         lit(2f64.powi(-(k as i32)))
                     );
                 }
+                if let Some(n) = sh.bank {
+                    src += &format!("    state w[{n}][2]: [-4.0, 4.0] = 0.0;\n");
+                }
                 src += "    output y;\n";
                 if let Some(r) = sh.z {
                     src += &format!("    output z: [{}, {}];\n", lit(r.0), lit(r.1));
@@ -330,7 +344,18 @@ pub fn spec() -> impl Strategy<Value = RandomSpec> {
                         );
                     }
                 }
+                if let Some(n) = sh.bank {
+                    src += &format!(
+                        "        for j in 0..{n} {{\n            let u = {r0};\n            \
+                         w[j][0] = clamp({r1}, -4.0, 4.0);\n            \
+                         w[j][1] = clamp(u * 0.5 + {r2}, -4.0, 4.0);\n            \
+                         w[j][0] = clamp(w[j][0] - {r3}, -4.0, 4.0);\n        }}\n"
+                    );
+                }
                 let mut y = format!("{e3} + l0");
+                if sh.bank.is_some() {
+                    y += " + w[0][0]";
+                }
                 if let Some(n) = sh.vector {
                     y += &format!(" + v[0] + v[{}]", n - 1);
                 }

@@ -230,6 +230,7 @@ impl Emit {
                 walk(&body[i..=i], &mut |s| match s {
                     LStmt::Store(sig, _) => {
                         local.insert(*sig);
+                        current.remove(sig);
                         named.insert(*sig);
                     }
                     LStmt::Def(v) => {
@@ -267,22 +268,37 @@ impl Emit {
                 .collect();
             named.extend(b.iter().copied());
             before.push(b);
-            // Used after the run: loaded or stored by any later statement.
+            // Used after the run from the step's locals: loaded or stored by a later
+            // statement outside the runs, or passed by value to a later run (a later run's
+            // rows read the struct, which is current).
             let mut used = HashSet::new();
-            walk(&body[r.run().end..], &mut |s| match s {
-                LStmt::Store(sig, _) => {
-                    used.insert(*sig);
+            let mut j = r.run().end;
+            while j < body.len() {
+                if let Some(later) = self.at(j) {
+                    used.extend(later.params.iter().filter_map(|p| match p {
+                        Param::Sig(s) => Some(*s),
+                        Param::Val(_) => None,
+                    }));
+                    j = later.run().end;
+                    continue;
                 }
-                LStmt::Def(v) => {
-                    if let Op::Load(sig) = self.plan.val(*v).op {
-                        used.insert(sig);
+                walk(&body[j..=j], &mut |s| match s {
+                    LStmt::Store(sig, _) => {
+                        used.insert(*sig);
                     }
-                }
-                LStmt::If(..) => {}
-            });
+                    LStmt::Def(v) => {
+                        if let Op::Load(sig) = self.plan.val(*v).op {
+                            used.insert(sig);
+                        }
+                    }
+                    LStmt::If(..) => {}
+                });
+                j += 1;
+            }
             let mut a = Vec::new();
             for e in elems(true) {
                 if used.contains(&e) {
+                    current.remove(&e);
                     a.push(e);
                 } else {
                     current.insert(e);
@@ -458,8 +474,14 @@ fn check(plan: &Plan, start: usize, len: usize, count: usize) -> Result<Repeat, 
         }
         maps.push(std::mem::take(&mut m.map));
     }
-    // Signals read at one element by every copy: no copy may write them.
-    if m.shared.iter().any(|s| run_stored.contains(s)) {
+    // Signals read at one element by every copy: no copy may write them, and none may be
+    // an element of the first copy's rows too (the function would have a parameter and a
+    // row local of one name, and copy `l` would read its own row where the plan reads the
+    // first's).
+    if m.shared
+        .iter()
+        .any(|s| run_stored.contains(s) || m.rows.iter().any(|r| r.elems.contains(s)))
+    {
         return Err(None);
     }
     // Nothing a copy defines is read after the run.

@@ -475,11 +475,20 @@ impl<'p> Abstraction<'p> {
             let doc = spaced(&format!(
                 "Abstraction of `{label}` ({}): asserts the factors inside {} (raw) and returns \
                  a value satisfying the {}, each proved by a `lemma_{}_*` harness; equal \
-                 factors give the same value (the last call is remembered).",
+                 factors give the same value ({}).",
                 p.what,
                 p.factor_box(),
                 p.clauses_text(),
-                tag
+                tag,
+                if p.calls == 1 {
+                    "the last call is remembered".to_string()
+                } else {
+                    format!(
+                        "the first {} distinct calls are remembered, one per index of the shared \
+                         loop body",
+                        p.calls
+                    )
+                }
             ));
             if p.calls == 1 {
                 out.extend(quote! {
