@@ -52,7 +52,7 @@ pub fn module(plan: &Plan) -> TokenStream {
     } else {
         quote! {}
     };
-    let muls = em.var_products().into_iter().map(|id| mul_fn(plan, id));
+    let muls = mul_fns(plan, &em.var_products());
     let loops = em
         .repeats
         .iter()
@@ -67,7 +67,7 @@ pub fn module(plan: &Plan) -> TokenStream {
 
             #table_items
 
-            #(#muls)*
+            #muls
 
             #(#loops)*
 
@@ -521,35 +521,45 @@ pub fn mul_fn_name(id: ValId) -> Ident {
     format_ident!("qloop_mul_{}", id.0)
 }
 
-/// `qloop_mul_<N>(a, b)`: one product of two non-constant values of the step. A function only
-/// so that the Kani harnesses can stub it; always inlined, so the object code is the multiply.
-fn mul_fn(plan: &Plan, id: ValId) -> TokenStream {
-    let v = plan.val(id);
-    let Op::Mul(a, b) = v.op else {
-        return quote! {};
-    };
-    let (va, vb) = (plan.val(a), plan.val(b));
-    let name = mul_fn_name(id);
-    // Short: a large spec has hundreds; why they are functions is said once, in the module
-    // doc.
-    let doc = format!(
-        " `{} = {} * {}`, factors in [{}, {}] and [{}, {}] (raw); a function for `kani::stub`, \
-         inlined.",
-        val_name(plan, id),
-        val_name(plan, a),
-        val_name(plan, b),
-        va.lo,
-        va.hi,
-        vb.lo,
-        vb.hi
-    );
-    let (ta, tb, t) = (int_ty(va.ty), int_ty(vb.ty), int_ty(v.ty));
-    quote! {
-        #[doc = #doc]
-        #[inline(always)]
-        pub(crate) fn #name(a: #ta, b: #tb) -> #t {
-            a * b
+/// `qloop_mul_<N>(a, b)`, one per product of two non-constant values the module computes:
+/// functions only so that the Kani harnesses can stub them; always inlined, so the object code
+/// is the multiply. Defined through one `macro_rules!`, a line per product (a large spec has
+/// hundreds; the factors' intervals are in the harnesses' abstractions).
+fn mul_fns(plan: &Plan, ids: &[ValId]) -> TokenStream {
+    // The products grouped by signature, in order of first appearance.
+    let mut groups: Vec<((IntTy, IntTy, IntTy), Vec<Ident>)> = Vec::new();
+    for &id in ids {
+        let v = plan.val(id);
+        let Op::Mul(a, b) = v.op else {
+            continue;
+        };
+        let sig = (plan.val(a).ty, plan.val(b).ty, v.ty);
+        match groups.iter_mut().find(|(s, _)| *s == sig) {
+            Some((_, names)) => names.push(mul_fn_name(id)),
+            None => groups.push((sig, vec![mul_fn_name(id)])),
         }
+    }
+    if groups.is_empty() {
+        return quote! {};
+    }
+    let entries = groups.iter().map(|((ta, tb, t), names)| {
+        let (ta, tb, t) = (int_ty(*ta), int_ty(*tb), int_ty(*t));
+        quote! { (#ta, #tb) -> #t: #(#names),*; }
+    });
+    quote! {
+        /// Defines the step's products `qloop_mul_<n>` (see the module doc), by signature.
+        macro_rules! qloop_muls {
+            ($(($a:ty, $b:ty) -> $t:ty: $($name:ident),*;)*) => {$($(
+                // Items a local macro defines get the lints the expansion's own code would
+                // not: a module whose step a crate never calls leaves them unused.
+                #[allow(dead_code)]
+                #[inline(always)]
+                pub(crate) fn $name(a: $a, b: $b) -> $t {
+                    a * b
+                }
+            )*)*};
+        }
+        qloop_muls! { #(#entries)* }
     }
 }
 
