@@ -198,19 +198,55 @@ fn state_methods(plan: &Plan, sigs: &Sigs) -> TokenStream {
         .state_fields
         .iter()
         .map(|m| init_field(plan, m, |id| lit(plan.raw_init(id), plan.format(id).ty)));
-    let getters = sigs.state_fields.iter().map(|m| {
-        init_field(plan, m, |id| {
+    // A vector or matrix converts as a whole (its elements share a format): one `map` per
+    // dimension, not a line per element.
+    let getters = sigs.state_fields.iter().map(|m| match m {
+        Member::Group { name, dims, ids } => {
+            let g = format_ident!("{name}");
+            let ty = fixed_ty(plan.format(ids[0]));
+            let mut f = quote! { <#ty>::from_bits };
+            for _ in 1..dims.len() {
+                f = quote! { |r| r.map(#f) };
+            }
+            quote! { #g: self.#g.map(#f), }
+        }
+        Member::Scalar(_) => init_field(plan, m, |id| {
             let p = path(plan, id);
             let ty = fixed_ty(plan.format(id));
             quote! { <#ty>::from_bits(self.#p) }
-        })
+        }),
     });
-    let setters = states.iter().map(|id| {
-        let p = path(plan, *id);
-        let q = plan.format(*id);
-        let (lo, hi) = plan.bounds(*id);
-        let (lo, hi) = (lit(lo, q.ty), lit(hi, q.ty));
-        quote! { self.#p = ::core::cmp::max(::core::cmp::min(s.#p.to_bits(), #hi), #lo); }
+    // A vector or matrix whose elements share their bounds saturates in one loop over its
+    // elements; otherwise, and for scalars, a line per element.
+    let setters = sigs.state_fields.iter().map(|m| {
+        let each = |id: &SigId| {
+            let p = path(plan, *id);
+            let q = plan.format(*id);
+            let (lo, hi) = plan.bounds(*id);
+            let (lo, hi) = (lit(lo, q.ty), lit(hi, q.ty));
+            quote! { self.#p = ::core::cmp::max(::core::cmp::min(s.#p.to_bits(), #hi), #lo); }
+        };
+        match m {
+            Member::Group { name, dims, ids }
+                if ids.iter().all(|id| plan.bounds(*id) == plan.bounds(ids[0])) =>
+            {
+                let g = format_ident!("{name}");
+                let q = plan.format(ids[0]);
+                let (lo, hi) = plan.bounds(ids[0]);
+                let (lo, hi) = (lit(lo, q.ty), lit(hi, q.ty));
+                let flat = (1..dims.len()).map(|_| quote! { .flatten() });
+                let flat2 = flat.clone();
+                quote! {
+                    for (d, x) in self.#g.iter_mut() #(#flat)* .zip(s.#g.iter() #(#flat2)*) {
+                        *d = ::core::cmp::max(::core::cmp::min(x.to_bits(), #hi), #lo);
+                    }
+                }
+            }
+            _ => {
+                let lines = m.ids().iter().map(each).collect::<Vec<_>>();
+                quote! { #(#lines)* }
+            }
+        }
     });
     // Controllers without states keep the same signature.
     let (no_states, _) = super::unused_params(states.is_empty(), false);
