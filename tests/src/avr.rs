@@ -170,13 +170,7 @@ fn link(cc: &Path, plan: &Plan, dir: &Path, objs: &[&Path], elf: &Path) {
 /// What the simavr runner printed for `elf`, which must have reached its done marker, on the
 /// core the plan's `-mmcu=` names (the ATmega328P without one).
 fn simulate(plan: &Plan, runner: &Path, elf: &Path) -> String {
-    let mcu = plan
-        .target
-        .toolchain
-        .cflags
-        .iter()
-        .find_map(|f| f.strip_prefix("-mmcu="))
-        .unwrap_or("atmega328p");
+    let mcu = plan.target.toolchain.mcu().unwrap_or("atmega328p");
     let out = run(Command::new(runner).arg("--mcu").arg(mcu).arg(elf));
     assert!(out.contains("end done-marker "), "{out}");
     out

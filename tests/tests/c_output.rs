@@ -21,7 +21,8 @@
 use qloop::interp::step_fixed;
 use qloop::ir::SigKind;
 use qloop_tests::avr;
-use qloop_tests::c_harness::{self, fixed_driver_exe, ids, raw_input, run_lines, Case, Rng};
+use qloop_tests::c_harness::trajectory_and_states;
+use qloop_tests::c_harness::{self, fixed_driver_exe, ids, raw_input, run_lines, Rng};
 use qloop_tests::{plan_for, scratch, tool};
 use std::fmt::Write;
 
@@ -236,17 +237,7 @@ fn the_multi_model_controller_on_the_atmega2560_in_simavr_matches_the_interprete
     )
     .unwrap();
     assert!(qloop::gen_c(&plan).1.contains("milling_multimodel_loop_0("));
-    let inputs = ids(&plan, SigKind::Input);
-    let mut rng = Rng(0x2560);
-    let cases: Vec<Case> = (0..200)
-        .map(|_| Case {
-            states: None,
-            inputs: inputs
-                .iter()
-                .map(|id| raw_input(&plan, *id, &mut rng))
-                .collect(),
-        })
-        .collect();
+    let cases = trajectory_and_states(&plan, &mut Rng(0x2560), 200, 0);
     let dir = scratch("c-avr-simavr-mega-multimodel");
     assert_eq!(avr::matches_the_interpreter(&sim, &plan, &cases, &dir), 200);
 }
@@ -278,17 +269,7 @@ fn avr_c_in_simavr_matches_the_interpreter() {
         );
         paths[0] |= shifts.iter().any(|k| *k < 32 && k % 8 != 0);
         paths[1] |= shifts.iter().any(|k| *k > 32 && k % 8 != 0);
-        let inputs = ids(plan, SigKind::Input);
-        let mut rng = Rng(0x5a64_0000_0000_0400);
-        let cases: Vec<Case> = (0..400)
-            .map(|_| Case {
-                states: None,
-                inputs: inputs
-                    .iter()
-                    .map(|id| raw_input(plan, *id, &mut rng))
-                    .collect(),
-            })
-            .collect();
+        let cases = trajectory_and_states(plan, &mut Rng(0x5a64_0000_0000_0400), 400, 0);
         let dir = scratch(&format!("c-avr-simavr-{stem}"));
         let n = avr::matches_the_interpreter(&sim, plan, &cases, &dir);
         println!("{stem}: {n} steps in simavr equal to the interpreter");

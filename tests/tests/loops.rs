@@ -18,10 +18,9 @@
 //! comparison against the interpreter and `qloop-verified` on every target).
 
 use qloop::emit::repeat;
-use qloop::ir::SigKind;
 use qloop::Plan;
-use qloop_tests::c_harness::{fixed_c_matches_interpreter, ids, interpreted, raw_input};
-use qloop_tests::c_harness::{trajectory_and_states, Case, Rng};
+use qloop_tests::c_harness::{fixed_c_matches_interpreter, interpreted};
+use qloop_tests::c_harness::{trajectory_and_states, Rng};
 use qloop_tests::{scratch, tool};
 
 qloop_macros::controller!("tests/bank.qloop");
@@ -162,17 +161,7 @@ fn the_bank_in_c_computes_the_interpreters_values_on_every_target() {
 #[test]
 fn the_bank_in_rust_computes_the_interpreters_values() {
     let plan = qloop::compile_str(BANK, &qloop::Target::default()).unwrap();
-    let mut rng = Rng(0xba_4c);
-    let inputs = ids(&plan, SigKind::Input);
-    let cases: Vec<Case> = (0..5_000)
-        .map(|_| Case {
-            states: None,
-            inputs: inputs
-                .iter()
-                .map(|id| raw_input(&plan, *id, &mut rng))
-                .collect(),
-        })
-        .collect();
+    let cases = trajectory_and_states(&plan, &mut Rng(0xba_4c), 5_000, 0);
     let want = interpreted(&plan, &cases);
     let mut c = bank::Controller::new();
     for (k, case) in cases.iter().enumerate() {

@@ -550,9 +550,6 @@ fn row_elem(plan: &Plan, r: &Row, s: SigId) -> String {
 fn loop_fn(plan: &Plan, k: usize, r: &Repeat) -> String {
     let p = &plan.prog;
     let mut params: Vec<String> = Vec::new();
-    if r.reads_inputs(plan) {
-        params.push(format!("const {}_inputs *in", p.name));
-    }
     params.extend(r.rows.iter().map(|row| row_param(plan, row)));
     for q in &r.params {
         params.push(match *q {
@@ -628,9 +625,6 @@ fn loop_call(em: &Emit, sync: &Sync, k: usize, o: &mut String) {
         );
     }
     let mut args: Vec<String> = Vec::new();
-    if r.reads_inputs(plan) {
-        args.push("in".into());
-    }
     for row in &r.rows {
         let at = if row.lead == 0 {
             "qloop_l".to_string()

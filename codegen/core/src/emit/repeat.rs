@@ -97,15 +97,12 @@ impl Repeat {
         &plan.body[self.copy(0)]
     }
 
-    /// Whether the body reads an input's raw bits itself (then the function needs them).
-    pub fn reads_inputs(&self, plan: &Plan) -> bool {
-        let mut found = false;
-        walk(self.body(plan), &mut |s| {
-            if let LStmt::Def(id) = s {
-                found |= matches!(plan.val(*id).op, Op::Input(_));
-            }
-        });
-        found
+    /// The signals passed by value ([`Param::Sig`]).
+    pub fn shared(&self) -> impl Iterator<Item = SigId> + '_ {
+        self.params.iter().filter_map(|p| match p {
+            Param::Sig(s) => Some(*s),
+            Param::Val(_) => None,
+        })
     }
 
     /// The element of copy `l` at the first copy's element `s0` of row `row`.
@@ -159,12 +156,6 @@ impl Emit {
     /// The run starting at top-level statement `i`, if any.
     pub fn at(&self, i: usize) -> Option<&Repeat> {
         self.repeats.iter().find(|r| r.start == i)
-    }
-
-    /// Whether top-level statement `i` is inside a copy after the first (emitted by the
-    /// call, not as text).
-    pub fn skipped(&self, i: usize) -> bool {
-        self.repeats.iter().any(|r| r.run().contains(&i))
     }
 
     /// The statements emitted as text: the top-level ones outside every run, and each run's
@@ -227,26 +218,17 @@ impl Emit {
         let mut i = 0;
         while i < body.len() {
             let Some(r) = self.at(i) else {
-                walk(&body[i..=i], &mut |s| match s {
-                    LStmt::Store(sig, _) => {
-                        local.insert(*sig);
-                        current.remove(sig);
-                        named.insert(*sig);
+                touched(&self.plan, &body[i..=i], &mut |sig, store| {
+                    if store {
+                        local.insert(sig);
+                        current.remove(&sig);
                     }
-                    LStmt::Def(v) => {
-                        if let Op::Load(sig) = self.plan.val(*v).op {
-                            named.insert(sig);
-                        }
-                    }
-                    LStmt::If(..) => {}
+                    named.insert(sig);
                 });
                 i += 1;
                 continue;
             };
-            named.extend(r.params.iter().filter_map(|p| match p {
-                Param::Sig(s) => Some(*s),
-                Param::Val(_) => None,
-            }));
+            named.extend(r.shared());
             // Every copy's elements of the rows (or those the body stores).
             let elems = |stored: bool| {
                 let mut v = Vec::new();
@@ -275,23 +257,12 @@ impl Emit {
             let mut j = r.run().end;
             while j < body.len() {
                 if let Some(later) = self.at(j) {
-                    used.extend(later.params.iter().filter_map(|p| match p {
-                        Param::Sig(s) => Some(*s),
-                        Param::Val(_) => None,
-                    }));
+                    used.extend(later.shared());
                     j = later.run().end;
                     continue;
                 }
-                walk(&body[j..=j], &mut |s| match s {
-                    LStmt::Store(sig, _) => {
-                        used.insert(*sig);
-                    }
-                    LStmt::Def(v) => {
-                        if let Op::Load(sig) = self.plan.val(*v).op {
-                            used.insert(sig);
-                        }
-                    }
-                    LStmt::If(..) => {}
+                touched(&self.plan, &body[j..=j], &mut |sig, _| {
+                    used.insert(sig);
                 });
                 j += 1;
             }
@@ -346,6 +317,19 @@ fn walk<'a>(stmts: &'a [LStmt], f: &mut impl FnMut(&'a LStmt)) {
             walk(e, f);
         }
     }
+}
+
+/// Calls `f(signal, stored)` for every signal `stmts` (nested ones included) load or store.
+fn touched(plan: &Plan, stmts: &[LStmt], f: &mut impl FnMut(SigId, bool)) {
+    walk(stmts, &mut |s| match s {
+        LStmt::Store(sig, _) => f(*sig, true),
+        LStmt::Def(v) => {
+            if let Op::Load(sig) = plan.val(*v).op {
+                f(sig, false);
+            }
+        }
+        LStmt::If(..) => {}
+    });
 }
 
 /// The spec line of a statement.
@@ -580,7 +564,9 @@ impl Matcher<'_> {
             p.len() == q.len() && p.iter().zip(q).all(|(u, v)| me.operand(*u, *v))
         };
         match (&a.op, &b.op) {
-            (Op::Input(s), Op::Input(t)) => s == t,
+            // The step reads its inputs in its prologue, before any loop; a body that read
+            // them itself would need the inputs passed in, which nothing emits.
+            (Op::Input(_), _) => false,
             (Op::Load(s), Op::Load(t)) => self.sig(*s, *t, false),
             (Op::Const(c), Op::Const(d)) => c == d,
             (Op::Shl(_, j), Op::Shl(_, k))

@@ -417,9 +417,6 @@ fn row_elem(plan: &Plan, r: &Row, s: SigId) -> TokenStream {
 /// it is called with (see [`super::repeat`]).
 fn loop_fn(plan: &Plan, k: usize, r: &Repeat) -> TokenStream {
     let mut params = Vec::new();
-    if r.reads_inputs(plan) {
-        params.push(quote! { inputs: &Inputs });
-    }
     for row in &r.rows {
         let g = format_ident!("{}", row.group);
         let elem = int_ty(plan.format(row.elems[0]).ty).into_token_stream();
@@ -509,9 +506,6 @@ fn loop_call(em: &Emit, sync: &Sync, k: usize) -> TokenStream {
         }
     }
     let mut args = Vec::new();
-    if r.reads_inputs(plan) {
-        args.push(quote! { &inputs });
-    }
     for row in &r.rows {
         let g = format_ident!("{}", row.group);
         args.push(quote! { #g });

@@ -190,6 +190,13 @@ pub struct Toolchain {
     pub qemu_machine: Option<String>,
 }
 
+impl Toolchain {
+    /// The AVR device the flags compile for (`-mmcu=NAME`), which is also simavr's core.
+    pub fn mcu(&self) -> Option<&str> {
+        self.cflags.iter().find_map(|f| f.strip_prefix("-mmcu="))
+    }
+}
+
 impl Target {
     /// Checks a target description's values (what a target file may not say: word widths
     /// other than 8/16/32/64, a multiplier with cycles but no kind, free shifts or adds).

@@ -168,13 +168,8 @@ pub(super) fn runner() -> CliResult<PathBuf> {
 }
 
 /// The simavr core of target `t`: its `-mmcu=` flag's device (`atmega328p` without one).
-pub(super) fn mcu(t: &qloop::Target) -> String {
-    t.toolchain
-        .cflags
-        .iter()
-        .find_map(|f| f.strip_prefix("-mmcu="))
-        .unwrap_or("atmega328p")
-        .to_string()
+pub(super) fn mcu(t: &qloop::Target) -> &str {
+    t.toolchain.mcu().unwrap_or("atmega328p")
 }
 
 /// Runs the ELF in simavr on core `mcu`; exact cycles per step and the reported outputs.

@@ -247,7 +247,7 @@ pub fn bench(a: &BenchArgs) -> CliResult {
                 (Platform::Qemu { .. } | Platform::Riscv { .. }, _) => {
                     qemu::run(&b.elf, &pf, v, a.steps)
                 }
-                (Platform::Avr, Some(r)) => avr::run(r, &avr::mcu(t), &b.elf, v, a.steps),
+                (Platform::Avr, Some(r)) => avr::run(r, avr::mcu(t), &b.elf, v, a.steps),
                 (Platform::Avr, None) => Err(CliError::tool("internal: no simavr runner")),
             }?;
             Ok((Some(m), fp))

@@ -490,57 +490,60 @@ impl<'p> Abstraction<'p> {
                     )
                 }
             ));
-            if p.calls == 1 {
-                out.extend(quote! {
-                    #[cfg(kani)]
-                    static mut #memo: Option<(#t, #t, #t)> = None;
-                    #[doc = #doc]
-                    #[cfg(kani)]
-                    fn #abs(a: #t, b: #t) -> #t {
-                        kani::assert((#xl..=#xu).contains(&a), #msg_a);
-                        kani::assert((#yl..=#yu).contains(&b), #msg_b);
+            // The memo: the last call's arguments and value, or (one call per index of a
+            // shared loop body) a slot per call, so that the property's product meets the
+            // step's of its own index. Only the memo differs between the two.
+            let (decl, lookup, remember) = if p.calls == 1 {
+                (
+                    quote! { static mut #memo: Option<(#t, #t, #t)> = None; },
+                    quote! {
                         if let Some((x, y, r)) = unsafe { #memo } {
                             if x == a && y == b {
                                 return r;
                             }
                         }
-                        let r: #t = kani::any();
-                        let (x, y, z) = (a as #w, b as #w, r as #w);
-                        #(#assumes)*
+                    },
+                    quote! {
                         unsafe {
                             #memo = Some((a, b, r));
                         }
-                        r
-                    }
-                });
+                    },
+                )
             } else {
-                // One call per index of a shared loop body: a slot per call, so that the
-                // property's product meets the step's of its own index.
                 let n = Literal::usize_unsuffixed(p.calls);
-                out.extend(quote! {
-                    #[cfg(kani)]
-                    static mut #memo: [Option<(#t, #t, #t)>; #n] = [None; #n];
-                    #[doc = #doc]
-                    #[cfg(kani)]
-                    fn #abs(a: #t, b: #t) -> #t {
-                        kani::assert((#xl..=#xu).contains(&a), #msg_a);
-                        kani::assert((#yl..=#yu).contains(&b), #msg_b);
+                (
+                    quote! { static mut #memo: [Option<(#t, #t, #t)>; #n] = [None; #n]; },
+                    quote! {
                         let memo = unsafe { &mut *::core::ptr::addr_of_mut!(#memo) };
                         for (x, y, r) in memo.iter().flatten() {
                             if *x == a && *y == b {
                                 return *r;
                             }
                         }
-                        let r: #t = kani::any();
-                        let (x, y, z) = (a as #w, b as #w, r as #w);
-                        #(#assumes)*
+                    },
+                    quote! {
                         if let Some(slot) = memo.iter_mut().find(|s| s.is_none()) {
                             *slot = Some((a, b, r));
                         }
-                        r
-                    }
-                });
-            }
+                    },
+                )
+            };
+            out.extend(quote! {
+                #[cfg(kani)]
+                #decl
+                #[doc = #doc]
+                #[cfg(kani)]
+                fn #abs(a: #t, b: #t) -> #t {
+                    kani::assert((#xl..=#xu).contains(&a), #msg_a);
+                    kani::assert((#yl..=#yu).contains(&b), #msg_b);
+                    #lookup
+                    let r: #t = kani::any();
+                    let (x, y, z) = (a as #w, b as #w, r as #w);
+                    #(#assumes)*
+                    #remember
+                    r
+                }
+            });
             for c in clauses {
                 let name = format_ident!("lemma_{}_{}", tag, clause_name(c));
                 let e = clause(c, p);
