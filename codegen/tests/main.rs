@@ -2,6 +2,7 @@
 //! own; one link and one process for all of them, and `cargo test` runs them in parallel).
 //! See the book's "Tests and their tiers" (docs/book/src/internals/tests.md) for what each tier holds.
 
+mod attrs;
 mod bench;
 mod cli;
 mod common;

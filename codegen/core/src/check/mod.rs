@@ -1496,9 +1496,6 @@ struct Attrs {
     flag: Option<Span>,
 }
 
-/// Reads `#[q(i32, 20)]`, `#[lsb(1e-3)]`, `#[range(LO, HI)]` and `#[unsaturated]`.
-/// The format attributes of a declaration; `eval` gives the value of a `#[range]` bound (a
-/// constant expression).
 /// `qloop_recip0_r3` → (`qloop_recip0`, `'r'`, `"3"`); the same for `_t3`.
 fn split_step_name(n: &str) -> Option<(&str, char, &str)> {
     let (head, k) = n.rsplit_once('_')?;
@@ -1509,6 +1506,9 @@ fn split_step_name(n: &str) -> Option<(&str, char, &str)> {
     Some((head, kind, &k[1..]))
 }
 
+/// Reads `#[q(i32, 20)]`, `#[lsb(1e-3)]`, `#[range(LO, HI)]` and `#[unsaturated]`: the format
+/// attributes of a declaration; `eval` gives the value of a `#[range]` bound (a constant
+/// expression).
 fn fmt_attrs(attrs: &[syn::Attribute], eval: &dyn Fn(&SExpr) -> Result<f64>) -> Result<Attrs> {
     let mut pin = None;
     let mut lsb = None;
@@ -1534,9 +1534,13 @@ fn fmt_attrs(attrs: &[syn::Attribute], eval: &dyn Fn(&SExpr) -> Result<f64>) -> 
                 return Err(bad());
             };
             let ty = path_ident(t).ok_or_else(bad)?.to_string();
-            let (signed, bits) = ty.split_at(1);
+            let (signed, bits) = match (ty.strip_prefix('i'), ty.strip_prefix('u')) {
+                (Some(b), _) => ("i", b),
+                (_, Some(b)) => ("u", b),
+                _ => return Err(bad()),
+            };
             let bits: u32 = bits.parse().map_err(|_| bad())?;
-            if !WIDTHS.contains(&bits) || !(signed == "i" || signed == "u") {
+            if !WIDTHS.contains(&bits) {
                 return Err(bad());
             }
             let frac = match f {
