@@ -15,13 +15,21 @@ fn spec(attr: &str) -> String {
 #[test]
 fn malformed_q_types_are_located_errors() {
     let ok = qloop::compile_str(&spec("#[q(i16, 12)]"), &Target::default());
-    assert!(ok.is_ok(), "the well-formed attribute: {:?}", ok.err().map(|e| e.message));
+    assert!(
+        ok.is_ok(),
+        "the well-formed attribute: {:?}",
+        ok.err().map(|e| e.message)
+    );
     for ty in ["μ8", "ü16", "i", "u", "x32", "i12", "u33", "i3a", "µ"] {
         let src = spec(&format!("#[q({ty}, 3)]"));
         let e = qloop::compile_str(&src, &Target::default())
             .err()
             .unwrap_or_else(|| panic!("`{ty}` accepted"));
-        assert!(e.message.contains("expected `#[q(TYPE, FRAC)]`"), "`{ty}`: {}", e.message);
+        assert!(
+            e.message.contains("expected `#[q(TYPE, FRAC)]`"),
+            "`{ty}`: {}",
+            e.message
+        );
         // The attribute's line and its `#` (line 5, column 5, both counted from 1).
         assert_eq!(e.line_col(), (5, 5), "`{ty}`: {}", e.message);
     }

@@ -3,8 +3,10 @@
 //! constant arrays per table (`Op::Lookup`) at an index cut from the argument (`Op::Low`):
 //!
 //! * the fixed-point C holds each table's samples and differences as the plan has them
-//!   (padded to a power of two: the samples with the last one, the differences with 0), and
-//!   compiles with `-Werror` for every built-in target with that target's compiler;
+//!   (padded to a power of two: the samples with the last one, the differences with 0), or,
+//!   where the target trades flash for cycles (the ATmega328P), the samples alone, padded
+//!   past the last one, its differences read as `T[i + 1] − T[i]`; and it compiles with
+//!   `-Werror` for every built-in target with that target's compiler;
 //! * on the ATmega328P (avr-gcc) the arrays are in flash: `.progmem.data` in the object
 //!   (none in `.data`/`.rodata`, which avr-gcc copies into the 2 KiB of RAM), `.text` in the
 //!   linked firmware, read with `lpm`; the same C built without `__AVR__` puts them in
@@ -131,12 +133,19 @@ fn c_array(c: &str, name: &str) -> (String, Vec<i128>) {
 
 #[test]
 fn fixed_c_holds_the_plans_arrays_and_reads_them_through_the_macros() {
+    let mut compacted = 0;
     for target in ["host", "atmega328p", "cortex-m0"] {
         let plan = plan_for(target);
         let (_, c) = qloop::gen_c(&plan);
-        assert_eq!(plan.tables.len(), 2, "{target}: one array pair per table");
+        assert_eq!(plan.tables.len(), 2, "{target}: two tables");
+        let layouts = qloop::emit::table_layouts(&plan);
         for (i, lt) in plan.tables.iter().enumerate() {
-            let len = lt.entries.len().next_power_of_two();
+            let layout = layouts[i];
+            let len = layout.len;
+            assert!(
+                len.is_power_of_two() && len >= lt.entries.len(),
+                "{target}: {len}"
+            );
             let mut entries = lt.entries.clone();
             entries.resize(len, *lt.entries.last().unwrap());
             let mut deltas = lt.deltas.clone();
@@ -156,32 +165,103 @@ fn fixed_c_holds_the_plans_arrays_and_reads_them_through_the_macros() {
                 "{target}: table {i}"
             );
             assert_eq!(got, entries, "{target}: table {i}");
-            let (ty, got) = c_array(&c, &format!("tables_delta_{i}"));
-            assert_eq!(
-                ty,
-                qloop::emit::c::c_ty(lt.delta_ty),
-                "{target}: deltas {i}"
-            );
-            assert_eq!(got, deltas, "{target}: deltas {i}");
+            let name = format!("tables_table_{i}");
+            let bits = lt.format.ty.bits;
+            let reads = c.matches(&format!("QLOOP_READ_{bits}({name}, ")).count();
+            if layout.deltas {
+                let (ty, got) = c_array(&c, &format!("tables_delta_{i}"));
+                assert_eq!(
+                    ty,
+                    qloop::emit::c::c_ty(lt.delta_ty),
+                    "{target}: deltas {i}"
+                );
+                assert_eq!(got, deltas, "{target}: deltas {i}");
+                let dname = format!("tables_delta_{i}");
+                let dbits = lt.delta_ty.bits;
+                let dreads = c.matches(&format!("QLOOP_READ_{dbits}({dname}, ")).count();
+                assert_eq!(dreads, 1, "{target}: reads of `{dname}`");
+                assert_eq!(reads, 1, "{target}: reads of `{name}`");
+                assert_eq!(
+                    c.matches(&format!("{dname}[")).count(),
+                    1,
+                    "{target}: `{dname}[`"
+                );
+            } else {
+                // The differences read from the samples: no array of them, one more read of
+                // the samples (T[i + 1]; T[i] is the value already read), and the array
+                // padded past the last sample, so that T[N + 1] − T[N] = 0.
+                compacted += 1;
+                assert!(
+                    !c.contains(&format!("tables_delta_{i}")),
+                    "{target}: deltas {i}"
+                );
+                assert!(len > lt.entries.len(), "{target}: table {i} not padded");
+                assert_eq!(reads, 2, "{target}: reads of `{name}`");
+            }
             // Read only through the macro that reads flash on AVR (`pgm_read_*`), never
             // indexed directly: `NAME[` is the declaration alone.
-            for (name, bits) in [
-                (format!("tables_table_{i}"), lt.format.ty.bits),
-                (format!("tables_delta_{i}"), lt.delta_ty.bits),
-            ] {
-                assert_eq!(
-                    c.matches(&format!("{name}[")).count(),
-                    1,
-                    "{target}: `{name}[`"
-                );
-                let reads = c.matches(&format!("QLOOP_READ_{bits}({name}, ")).count();
-                assert_eq!(reads, 1, "{target}: reads of `{name}`");
-            }
+            assert_eq!(
+                c.matches(&format!("{name}[")).count(),
+                1,
+                "{target}: `{name}[`"
+            );
         }
         assert!(
             c.contains("#if defined(__AVR__) && !defined(__FRAMAC__)\n#include <avr/pgmspace.h>\n#define QLOOP_PROGMEM PROGMEM\n"),
             "{target}: no PROGMEM branch"
         );
+    }
+    // The ATmega328P's cost model trades flash for cycles (`flash_per_cycle`); the others keep
+    // the differences.
+    assert!(
+        compacted > 0,
+        "no table read its differences from its samples"
+    );
+}
+
+/// The rule of `qloop::emit::table_layouts`: a table's differences are read from its samples
+/// exactly where the bytes saved are at least `flash_per_cycle` times the cycles added (one
+/// subtraction in the samples' type a read, every read of the step counted). Here for each
+/// table of tables.qloop on the ATmega328P's cost model, at the rate of its break-even
+/// point (compacted) and one above (stored), and at 0 (never).
+#[test]
+fn the_flash_per_cycle_rate_decides_which_tables_read_their_differences_from_their_samples() {
+    let base = qloop::targets::by_name("atmega328p").expect("target");
+    let with_rate = |rate: u32| {
+        let mut t = base.clone();
+        t.costs.flash_per_cycle = rate;
+        qloop::compile_str(SPEC, &t).expect("compiles")
+    };
+    let plan = with_rate(0);
+    assert!(qloop::emit::table_layouts(&plan)
+        .iter()
+        .all(|l| l.saved == 0));
+    for (i, lt) in plan.tables.iter().enumerate() {
+        assert_eq!(lt.delta_ty, lt.format.ty, "table {i}: one type");
+        let reads = plan
+            .vals
+            .iter()
+            .filter(|v| matches!(v.op, qloop::lower::lir::Op::Lookup { table, delta: true, .. } if table == i))
+            .count() as u64;
+        let n = lt.entries.len();
+        let bytes = u64::from(lt.format.ty.bits / 8);
+        let saved = n.next_power_of_two() as u64 * bytes
+            - ((n + 1).next_power_of_two() - n.next_power_of_two()) as u64 * bytes;
+        let cycles = reads * u64::from(base.add_cost(lt.format.ty.bits));
+        assert!(reads > 0 && cycles > 0, "table {i}");
+        let even = u32::try_from(saved / cycles).expect("small");
+        let at = qloop::emit::table_layouts(&with_rate(even))[i];
+        assert!(
+            !at.deltas && at.saved == saved && at.len > n,
+            "table {i} at rate {even}: {at:?}"
+        );
+        let above = qloop::emit::table_layouts(&with_rate(even + 1))[i];
+        assert!(
+            above.deltas && above.saved == 0,
+            "table {i} at rate {}: {above:?}",
+            even + 1
+        );
+        println!("table {i}: {saved} B for {cycles} cycles: compacted up to {even} B a cycle");
     }
 }
 
@@ -228,16 +308,8 @@ fn sections(size: &Path, file: &Path) -> BTreeMap<String, u64> {
         .collect()
 }
 
-/// The four arrays of tables.qloop.
-const ARRAYS: [&str; 4] = [
-    "tables_table_0",
-    "tables_delta_0",
-    "tables_table_1",
-    "tables_delta_1",
-];
-
 /// On the ATmega328P the table arrays are in flash and read with `lpm`: in the object,
-/// `.progmem.data` holds exactly the four arrays and `.data`/`.rodata` (which the start-up
+/// `.progmem.data` holds exactly the arrays the plan's layout stores and `.data`/`.rodata` (which the start-up
 /// code copies into RAM) nothing; in the linked firmware the arrays are in `.text`. The
 /// control, the same C built with `-U__AVR__` (plain `static const`), puts them in `.rodata`
 /// and `.data`: the check tells the two apart.
@@ -256,14 +328,23 @@ fn avr_tables_are_in_flash() {
         .into_iter()
         .map(|c| c.inputs)
         .collect();
-    let bytes: u64 = plan
-        .tables
-        .iter()
-        .map(|t| {
-            let len = t.entries.len().next_power_of_two() as u64;
-            len * u64::from(t.format.ty.bits + t.delta_ty.bits) / 8
-        })
-        .sum();
+    // The arrays the C holds (a table whose differences are read from its samples has no
+    // `delta` array) and their bytes.
+    let layouts = qloop::emit::table_layouts(&plan);
+    let mut arrays = Vec::new();
+    let mut bytes = 0u64;
+    for (i, (t, l)) in plan.tables.iter().zip(&layouts).enumerate() {
+        for (stored, what, bits) in [
+            (l.entries, "table", t.format.ty.bits),
+            (l.deltas, "delta", t.delta_ty.bits),
+        ] {
+            if stored {
+                arrays.push(format!("tables_{what}_{i}"));
+                bytes += l.len as u64 * u64::from(bits) / 8;
+            }
+        }
+    }
+    assert!(arrays.len() >= 2, "{arrays:?}");
     for (progmem, flags) in [(true, &[][..]), (false, &["-U__AVR__"][..])] {
         let dir = scratch(&format!("c-tables-avr-flash-{progmem}"));
         let elf = avr::firmware(&plan, cc, &dir, &steps, flags);
@@ -276,7 +357,7 @@ fn avr_tables_are_in_flash() {
             .filter(|l| l.contains("\tlpm"))
             .count();
         let mut total = 0;
-        for a in ARRAYS {
+        for a in &arrays {
             let (o_sec, sz) = o_syms
                 .get(a)
                 .unwrap_or_else(|| panic!("no `{a}` in the object"));
@@ -312,7 +393,7 @@ fn avr_tables_are_in_flash() {
         println!(
             "avr ({}): arrays {total} B in {}, {lpm} lpm, firmware RAM (.data + .bss) {ram} B, flash {} B",
             if progmem { "PROGMEM" } else { "control -U__AVR__" },
-            o_syms[ARRAYS[0]].0,
+            o_syms[&arrays[0]].0,
             e_secs.get(".text").copied().unwrap_or(0) + e_secs.get(".data").copied().unwrap_or(0)
         );
     }
@@ -368,9 +449,10 @@ fn fixed_c_matches_the_interpreter_bit_for_bit() {
     }
 }
 
-/// Frama-C Eva: 0 alarms for every raw input, host and 16-bit `int`. That it checks the table
-/// reads: with the index of one read 8 entries on (past the end from index 56 of 64), Eva
-/// raises an `index_bound` alarm.
+/// Frama-C Eva: 0 alarms for every raw input, host and 16-bit `int` (the ATmega328P's C reads
+/// recip's differences as `T[i + 1] − T[i]`). That it checks the table reads: with the index
+/// of one read 8 entries on (past the end from index 56 of 64), Eva raises an `index_bound`
+/// alarm.
 #[test]
 fn fixed_c_is_free_of_runtime_errors_by_frama_c_eva() {
     let Some(frama) = tool("frama-c") else { return };
@@ -384,14 +466,17 @@ fn fixed_c_is_free_of_runtime_errors_by_frama_c_eva() {
         );
 
         let c = std::fs::read_to_string(dir.join("tables.c")).unwrap();
+        // One read of recip's samples, or two where its differences are read from them.
         let read = "_32(tables_table_0, ";
+        let reads = c.matches(read).count();
+        let compact = !qloop::emit::table_layouts(&plan)[0].deltas;
         assert_eq!(
-            c.matches(read).count(),
-            1,
-            "{target}: one read of recip's samples"
+            reads,
+            1 + usize::from(compact),
+            "{target}: reads of recip's samples"
         );
         let bad = dir.join("tables_shifted.c");
-        std::fs::write(&bad, c.replace(read, "_32(tables_table_0, 8 + ")).unwrap();
+        std::fs::write(&bad, c.replacen(read, "_32(tables_table_0, 8 + ", 1)).unwrap();
         let out = c_harness::eva_output(&plan, &frama, machdep, &bad);
         assert!(
             out.contains("index_bound") && !out.contains("0 alarms generated"),

@@ -209,9 +209,17 @@ fn first_difference(plans: &[Plan], input: &str, got: &str, want: &str) -> Optio
     ))
 }
 
-/// Seed specs (without [`LARGE_SEED`] unless `large`), the corpus specs that compile, and
-/// random specs until `random` compile, each random spec planned for the default target and
-/// for the ATmega328P.
+/// Whether `p` reads a table's differences as `T[i + 1] − T[i]` (not stored).
+fn compacted(p: &Plan) -> bool {
+    let read = qloop::emit::table_arrays_read(p);
+    let layouts = qloop::emit::table_layouts(p);
+    read.iter().zip(&layouts).any(|(r, l)| r[1] && !l.deltas)
+}
+
+/// Seed specs (without [`LARGE_SEED`] unless `large`), the corpus specs that compile (and, as
+/// `NAME_avr`, their ATmega328P plans where those read a table's differences from its
+/// samples), and random specs until `random` compile, each random spec planned for the
+/// default target and for the ATmega328P.
 fn plans(seed: u64, random: usize, large: bool) -> (Vec<Plan>, Vec<String>) {
     let t = Target::default();
     let avr = qloop::targets::by_name("atmega328p").expect("built-in target");
@@ -225,8 +233,17 @@ fn plans(seed: u64, random: usize, large: bool) -> (Vec<Plan>, Vec<String>) {
             .into_iter()
             .filter(|(_, s)| corpus_expectation(s).is_none()),
     ) {
-        plans.push(qloop::compile_str(&src, &t).expect("compiles"));
+        let plan = qloop::compile_str(&src, &t).expect("compiles");
+        // A spec whose ATmega328P plan reads a table's differences from its samples
+        // (`qloop::emit::table_layouts`) runs in that form too, as `NAME_avr`.
+        let name = format!("controller {} ", plan.prog.name);
+        let avr_src = src.replacen(&name, &format!("controller {}_avr ", plan.prog.name), 1);
+        plans.push(plan);
         srcs.push(src);
+        if let Some(p) = qloop::compile_str(&avr_src, &avr).ok().filter(compacted) {
+            plans.push(p);
+            srcs.push(avr_src);
+        }
     }
     let mut n = 0;
     let mut batch = 0;
@@ -376,10 +393,22 @@ fn compiles_and_runs_bit_exact(name: &str, random: usize, large: bool) {
     if let Some(d) = first_difference(&plans, &input, &r_out, &expect) {
         panic!("seed {seed}: Rust differs from the plan interpreter: {d}");
     }
+    let compact: Vec<&str> = plans
+        .iter()
+        .filter(|p| {
+            // Not a random spec's `rN_avr`.
+            p.prog.name.strip_suffix("_avr").is_some_and(|n| {
+                !(n.starts_with('r') && n.len() > 1 && n[1..].bytes().all(|b| b.is_ascii_digit()))
+            })
+        })
+        .map(|p| p.prog.name.as_str())
+        .collect();
     eprintln!(
-        "{} plans ({random} random specs, each also planned for atmega328p), {} cases: \
-         Rust = C = interpreter",
+        "{} plans ({random} random specs, each also planned for atmega328p; {} with tables \
+         read compactly on atmega328p: {}), {} cases: Rust = C = interpreter",
         plans.len(),
+        compact.len(),
+        compact.join(", "),
         expect.lines().count()
     );
 }

@@ -418,6 +418,7 @@ fn body(plan: &Plan, include: bool) -> String {
         let _ = writeln!(o, "    {} {f} = 0;", c_ty(plan.format(*id).ty));
     }
     let mut i = 0;
+    let mut samples = Samples::default();
     while i < plan.body.len() {
         match em.repeats.iter().position(|r| r.start == i) {
             Some(k) => {
@@ -425,7 +426,7 @@ fn body(plan: &Plan, include: bool) -> String {
                 i = em.repeats[k].run().end;
             }
             None => {
-                block(plan, &plan.body[i..=i], 1, &mut o);
+                block(plan, &plan.body[i..=i], 1, &mut samples, &mut o);
                 i += 1;
             }
         }
@@ -595,7 +596,7 @@ fn loop_fn(plan: &Plan, k: usize, r: &Repeat) -> String {
             );
         }
     }
-    block(plan, r.body(plan), 1, &mut o);
+    block(plan, r.body(plan), 1, &mut Samples::default(), &mut o);
     for row in &r.rows {
         for s in &row.stored {
             let _ = writeln!(
@@ -665,12 +666,38 @@ fn indent(depth: usize) -> String {
     "    ".repeat(depth)
 }
 
-fn block(plan: &Plan, stmts: &[LStmt], depth: usize, o: &mut String) {
+/// The table samples `T[i]` read so far and still in scope, as `(table, index, value)`: a
+/// difference `D[i]` read as `T[i + 1] − T[i]` ([`super::table_layouts`]) reuses its `T[i]`,
+/// since on the AVR each read of a table in flash is an `lpm` sequence the compiler cannot
+/// merge with another.
+#[derive(Default)]
+struct Samples(Vec<(usize, ValId, ValId)>);
+
+impl Samples {
+    /// The value that read `T[idx]` of `table`, if one is in scope.
+    fn find(&self, table: usize, idx: ValId) -> Option<ValId> {
+        self.0
+            .iter()
+            .rev()
+            .find(|&&(t, i, _)| t == table && i == idx)
+            .map(|&(_, _, v)| v)
+    }
+}
+
+fn block(plan: &Plan, stmts: &[LStmt], depth: usize, samples: &mut Samples, o: &mut String) {
     let ind = indent(depth);
     for s in stmts {
         match s {
             LStmt::Def(id) => {
                 let v = plan.val(*id);
+                if let Op::Lookup {
+                    table,
+                    delta: false,
+                    idx,
+                } = v.op
+                {
+                    samples.0.push((table, idx, *id));
+                }
                 let ty = if v.boolean {
                     "bool".to_string()
                 } else {
@@ -698,10 +725,10 @@ fn block(plan: &Plan, stmts: &[LStmt], depth: usize, o: &mut String) {
                 } else if v.network {
                     // Shifted terms stay opaque, so the compiler cannot fold a shift-add
                     // network back into a multiply (see QLOOP_KEEP).
-                    let _ = writeln!(o, "{ind}{ty} {nm} = {};", expr(plan, *id));
+                    let _ = writeln!(o, "{ind}{ty} {nm} = {};", expr(plan, *id, samples));
                     let _ = writeln!(o, "{ind}QLOOP_KEEP({nm});");
                 } else {
-                    let _ = writeln!(o, "{ind}const {ty} {nm} = {};", expr(plan, *id));
+                    let _ = writeln!(o, "{ind}const {ty} {nm} = {};", expr(plan, *id, samples));
                 }
             }
             LStmt::Store(sig, id) => {
@@ -714,12 +741,15 @@ fn block(plan: &Plan, stmts: &[LStmt], depth: usize, o: &mut String) {
             }
             LStmt::If(c, t, e) => {
                 let _ = writeln!(o, "{ind}if ({}) {{", name(plan, *c));
-                block(plan, t, depth + 1, o);
+                let scope = samples.0.len();
+                block(plan, t, depth + 1, samples, o);
+                samples.0.truncate(scope);
                 if e.is_empty() {
                     let _ = writeln!(o, "{ind}}}");
                 } else {
                     let _ = writeln!(o, "{ind}}} else {{");
-                    block(plan, e, depth + 1, o);
+                    block(plan, e, depth + 1, samples, o);
+                    samples.0.truncate(scope);
                     let _ = writeln!(o, "{ind}}}");
                 }
             }
@@ -781,8 +811,8 @@ fn table_array(plan: &Plan, i: usize, delta: bool) -> String {
 /// with `pgm_read_*`: a table in RAM would cost the ATmega328P's scarce 2 KiB), padded to a
 /// power of two like the Rust output's.
 fn table_arrays(plan: &Plan) -> String {
-    let read = super::table_arrays_read(plan);
-    if read.iter().flatten().all(|r| !r) {
+    let layouts = super::table_layouts(plan);
+    if layouts.iter().all(|l| !l.entries && !l.deltas) {
         return String::new();
     }
     let mut o = String::from(
@@ -804,13 +834,14 @@ fn table_arrays(plan: &Plan) -> String {
          #endif\n\n",
     );
     for (i, t) in plan.tables.iter().enumerate() {
-        if read[i] == [false, false] {
+        let layout = layouts[i];
+        if !layout.entries && !layout.deltas {
             continue;
         }
-        let len = super::table_len(t);
+        let len = layout.len;
         let _ = writeln!(o, "/*{} */", super::table_doc(plan, i));
         for delta in [false, true] {
-            if !read[i][usize::from(delta)] {
+            if !(if delta { layout.deltas } else { layout.entries }) {
                 continue;
             }
             let (ty, src) = if delta {
@@ -844,13 +875,26 @@ fn name(plan: &Plan, id: ValId) -> String {
 }
 
 /// The expression defining value `id`; the result always has the value's own type.
-fn expr(plan: &Plan, id: ValId) -> String {
+fn expr(plan: &Plan, id: ValId, samples: &Samples) -> String {
     let v = plan.val(id);
     let t = c_ty(v.ty);
     let n = |x: &ValId| name(plan, *x);
     match &v.op {
         Op::Input(s) => format!("in->{}", field(&plan.prog, *s)),
         Op::Low(a, k) => format!("({t})({} & {})", n(a), c_lit((1i128 << k) - 1, v.ty)),
+        Op::Lookup { table, delta, idx }
+            if *delta && !super::table_layouts(plan)[*table].deltas =>
+        {
+            // `D[i]` as `T[i + 1] − T[i]` (`table_layouts`): the same type, and the difference
+            // fits it, so the subtraction is exact (in `int` for a narrower type).
+            let bits = plan.tables[*table].format.ty.bits;
+            let (arr, i) = (table_array(plan, *table, false), n(idx));
+            let ti = samples.find(*table, *idx).map_or_else(
+                || format!("QLOOP_READ_{bits}({arr}, {i})"),
+                |v| name(plan, v),
+            );
+            format!("({t})(QLOOP_READ_{bits}({arr}, {i} + 1) - {ti})")
+        }
         Op::Lookup { table, delta, idx } => {
             let bits = if *delta {
                 plan.tables[*table].delta_ty.bits

@@ -357,10 +357,67 @@ pub fn table_arrays_read(plan: &Plan) -> Vec<[bool; 2]> {
     out
 }
 
-/// The length of a table's arrays: `N + 1` entries padded to a power of two, so that a
-/// masked index needs no bounds check.
-pub fn table_len(t: &crate::lower::table::LTable) -> usize {
-    t.entries.len().next_power_of_two()
+/// How the emitters lay out the arrays of one lowered table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TableLayout {
+    /// The length of each emitted array: the entries padded with the last one to a power of
+    /// two, so that a masked index needs no bounds check.
+    pub len: usize,
+    /// The samples' array `T` is emitted.
+    pub entries: bool,
+    /// The differences' array `D` is emitted. Where it is not but the step reads `D[i]`, the
+    /// emitters read `T[i + 1] − T[i]` instead ([`table_layouts`]).
+    pub deltas: bool,
+    /// The bytes that reading `D` from `T` saves (0 where `D` is stored or unread).
+    pub saved: u64,
+}
+
+/// The layout of every lowered table's arrays. A step that interpolates reads `T[i]` and
+/// `D[i] = T[i + 1] − T[i]` (`D[N] = 0`, [`crate::lower::table`]). Where `D` has the samples'
+/// type and the target trades flash for cycles (`costs.flash_per_cycle`), `D` is not stored
+/// but read as `T[i + 1] − T[i]`: the same value (it fits that type, so the subtraction is
+/// exact), from a `T` padded to at least `N + 2` entries (its entries past `N` repeat `T[N]`,
+/// so `T[N + 1] − T[N] = 0`). That saves `D`'s bytes for one subtraction a read, counted by
+/// the target's cost model over every read of the step; a table is compacted where the bytes
+/// saved are at least `flash_per_cycle` times the cycles added.
+pub fn table_layouts(plan: &Plan) -> Vec<TableLayout> {
+    let reads = table_reads(plan);
+    let rate = u64::from(plan.target.costs.flash_per_cycle);
+    table_arrays_read(plan)
+        .into_iter()
+        .zip(&plan.tables)
+        .enumerate()
+        .map(|(k, ([e, d], t))| {
+            let n = t.entries.len();
+            let same = t.delta_ty == t.format.ty;
+            let saved = (n.next_power_of_two() * (t.delta_ty.bits as usize / 8)) as u64;
+            // The samples' array may double (`N + 2` past a power of two): count that too.
+            let grown = (((n + 1).next_power_of_two() - n.next_power_of_two())
+                * (t.format.ty.bits as usize / 8)) as u64;
+            let cycles = reads[k] * u64::from(plan.target.add_cost(t.format.ty.bits));
+            let compact = d && same && rate > 0 && saved >= grown + rate * cycles;
+            TableLayout {
+                len: (n + usize::from(compact)).next_power_of_two(),
+                entries: e || compact,
+                deltas: d && !compact,
+                saved: if compact { saved - grown } else { 0 },
+            }
+        })
+        .collect()
+}
+
+/// How many times a step reads each table's differences (every branch counted).
+fn table_reads(plan: &Plan) -> Vec<u64> {
+    let mut out = vec![0u64; plan.tables.len()];
+    for v in &plan.vals {
+        if let crate::lower::lir::Op::Lookup {
+            table, delta: true, ..
+        } = v.op
+        {
+            out[table] += 1;
+        }
+    }
+    out
 }
 
 /// `v` padded with its last entry to `len`.

@@ -711,16 +711,24 @@ fn op_expr(plan: &Plan, id: ValId) -> TokenStream {
         Op::Lookup { table, delta, idx } => {
             // The index is proved in 0..=N; the mask (a no-op there) lets the compiler drop
             // the bounds check, so no panicking path remains.
-            let (arr, mask) = table_name(plan, *table, *delta);
+            let layout = super::table_layouts(plan)[*table];
             let i = n(idx);
+            if *delta && !layout.deltas {
+                // `D[i]` as `T[i + 1] − T[i]` (`super::table_layouts`): exact in `T`'s type.
+                let (arr, mask) = table_name(layout, *table, false);
+                return quote! {
+                    #arr[(#i as usize).wrapping_add(1) & #mask].wrapping_sub(#arr[(#i as usize) & #mask])
+                };
+            }
+            let (arr, mask) = table_name(layout, *table, *delta);
             quote! { #arr[(#i as usize) & #mask] }
         }
     }
 }
 
 /// The name of table array `table` (samples or differences) and its index mask.
-fn table_name(plan: &Plan, table: usize, delta: bool) -> (Ident, Literal) {
-    let len = super::table_len(&plan.tables[table]);
+fn table_name(layout: super::TableLayout, table: usize, delta: bool) -> (Ident, Literal) {
+    let len = layout.len;
     let name = if delta {
         format_ident!("QLOOP_DELTA_{}", table)
     } else {
@@ -731,16 +739,17 @@ fn table_name(plan: &Plan, table: usize, delta: bool) -> (Ident, Literal) {
 
 /// The table arrays of the step: `const` arrays, padded to a power of two.
 fn table_arrays(plan: &Plan) -> TokenStream {
-    let read = super::table_arrays_read(plan);
+    let layouts = super::table_layouts(plan);
     let items = plan.tables.iter().enumerate().map(|(i, t)| {
-        let len = super::table_len(t);
+        let layout = layouts[i];
+        let len = layout.len;
         let doc = super::table_doc(plan, i);
         let mut out = TokenStream::new();
         for delta in [false, true] {
-            if !read[i][usize::from(delta)] {
+            if !(if delta { layout.deltas } else { layout.entries }) {
                 continue;
             }
-            let (name, _) = table_name(plan, i, delta);
+            let (name, _) = table_name(layout, i, delta);
             let (ty, src) = if delta {
                 (t.delta_ty, &t.deltas)
             } else {

@@ -156,6 +156,13 @@ pub struct Costs {
     /// of it, so a 64-bit add on RV32 is four instructions, not the two of `ADDS`/`ADC`.
     #[cfg_attr(feature = "serde", serde(default))]
     pub no_carry: bool,
+    /// Bytes of flash worth one cycle a step: a table's differences are read as
+    /// `T[i + 1] − T[i]` instead of stored where that saves at least this many bytes per cycle
+    /// it adds (one subtraction a read; [`crate::emit::table_layouts`]). 0: always stored (the
+    /// fastest code). On a small AVR the firmware around the controller (grbl takes 30 of the
+    /// ATmega328P's 32 KB) makes flash the scarcer of the two.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub flash_per_cycle: u32,
 }
 
 /// Widths of C's integer types on the target.
@@ -452,6 +459,7 @@ impl Default for Target {
                 libcall_bits: 0,
                 temp: 0,
                 no_carry: true,
+                flash_per_cycle: 0,
             },
             c: CTypes {
                 int_bits: 32,
