@@ -349,6 +349,9 @@ pub fn eva_output(plan: &Plan, frama: &Path, machdep: &str, c: &Path) -> String 
     run(Command::new(frama)
         .args(["-machdep", machdep])
         .args(["-warn-signed-downcast", "-warn-unsigned-downcast"])
+        // A table read compactly splits its index over its values, up to 257
+        // (`qloop::emit::c`, `compact_pairs`); Eva's default limit is 100.
+        .args(["-eva-split-limit", "257"])
         .args(["-eva", "-main", &format!("{}_eva_main", plan.prog.name)])
         .arg(c)
         .args(["-then", "-report"]))

@@ -36,7 +36,8 @@
 //! saturation bounds on entry and on exit). Under `__FRAMAC__` the `.c` file also defines an
 //! analysis entry point, `NAME_eva_main`, which calls `step` once on every state in range and
 //! every raw input value, so `frama-c -eva -main NAME_eva_main` proves the step free of
-//! run-time errors for all of them.
+//! run-time errors for all of them (with `-eva-split-limit 257` where a table's differences
+//! are read from its samples: see `compact_pairs`; the entry's comment says so).
 
 use super::Member;
 use crate::ir::{Program, SigId, SigKind};
@@ -44,6 +45,7 @@ use crate::lower::lir::{LStmt, Op, ValId};
 use crate::lower::Plan;
 use crate::qformat::IntTy;
 use qloop_core::emit::repeat::{self, Emit, Param, Repeat, Row, Sync};
+use std::collections::HashMap;
 use std::fmt::Write;
 
 mod wide;
@@ -418,7 +420,6 @@ fn body(plan: &Plan, include: bool) -> String {
         let _ = writeln!(o, "    {} {f} = 0;", c_ty(plan.format(*id).ty));
     }
     let mut i = 0;
-    let mut samples = Samples::default();
     while i < plan.body.len() {
         match em.repeats.iter().position(|r| r.start == i) {
             Some(k) => {
@@ -426,8 +427,16 @@ fn body(plan: &Plan, include: bool) -> String {
                 i = em.repeats[k].run().end;
             }
             None => {
-                block(plan, &plan.body[i..=i], 1, &mut samples, &mut o);
-                i += 1;
+                // The statements up to the next loop, as one list.
+                let j = em
+                    .repeats
+                    .iter()
+                    .map(|r| r.start)
+                    .filter(|&s| s > i)
+                    .min()
+                    .unwrap_or(plan.body.len());
+                block(plan, &plan.body[i..j], 1, &mut o);
+                i = j;
             }
         }
     }
@@ -453,10 +462,16 @@ fn eva_entry(plan: &Plan) -> String {
     let states = ids(plan, SigKind::State);
     let inputs = ids(plan, SigKind::Input);
     let mut o = String::new();
+    // A table read compactly splits its index over up to 257 values (`compact_pairs`).
+    let split = if super::table_layouts(plan).iter().any(|l| l.saved > 0) {
+        " -eva-split-limit 257"
+    } else {
+        ""
+    };
     let _ = write!(
         o,
         "\n#ifdef __FRAMAC__\n#include \"__fc_builtin.h\"\n\n\
-         /* Analysis entry for `frama-c -eva -main {n}_eva_main`: one step from every state\n\
+         /* Analysis entry for `frama-c -eva{split} -main {n}_eva_main`: one step from every state\n\
          \x20* inside its bounds and every raw input value. */\n\
          void {n}_eva_main(void)\n{{\n    {n}_state s;\n    {n}_inputs i;\n    {n}_outputs o;\n"
     );
@@ -596,7 +611,7 @@ fn loop_fn(plan: &Plan, k: usize, r: &Repeat) -> String {
             );
         }
     }
-    block(plan, r.body(plan), 1, &mut Samples::default(), &mut o);
+    block(plan, r.body(plan), 1, &mut o);
     for row in &r.rows {
         for s in &row.stored {
             let _ = writeln!(
@@ -666,37 +681,55 @@ fn indent(depth: usize) -> String {
     "    ".repeat(depth)
 }
 
-/// The table samples `T[i]` read so far and still in scope, as `(table, index, value)`: a
-/// difference `D[i]` read as `T[i + 1] − T[i]` ([`super::table_layouts`]) reuses its `T[i]`,
-/// since on the AVR each read of a table in flash is an `lpm` sequence the compiler cannot
-/// merge with another.
-#[derive(Default)]
-struct Samples(Vec<(usize, ValId, ValId)>);
-
-impl Samples {
-    /// The value that read `T[idx]` of `table`, if one is in scope.
-    fn find(&self, table: usize, idx: ValId) -> Option<ValId> {
-        self.0
-            .iter()
-            .rev()
-            .find(|&&(t, i, _)| t == table && i == idx)
-            .map(|&(_, _, v)| v)
+/// The reads of a table's differences as `T[i + 1] − T[i]` ([`super::table_layouts`]) in one
+/// statement list, each with the read of its `T[i]` earlier in the same list (the lowering
+/// emits the two together): the difference reuses that value, since on the AVR each read of a
+/// table in flash is an `lpm` sequence the compiler cannot merge with another. For Frama-C
+/// Eva, which relates no two array reads, the pair is bracketed by `//@ split i;` and
+/// `//@ merge i;`: the index is split into its values (at most 257; Eva needs
+/// `-eva-split-limit 257` where a table has more than 100 entries) across the two reads
+/// alone, so the difference gets the range of `D` instead of `[min T − max T, max T − min T]`.
+/// Comments to every compiler.
+fn compact_pairs(plan: &Plan, stmts: &[LStmt]) -> HashMap<ValId, ValId> {
+    let layouts = super::table_layouts(plan);
+    let mut samples: Vec<(usize, ValId, ValId)> = Vec::new();
+    let mut pairs = HashMap::new();
+    for st in stmts {
+        let LStmt::Def(id) = st else { continue };
+        match plan.val(*id).op {
+            Op::Lookup {
+                table,
+                delta: false,
+                idx,
+            } => samples.push((table, idx, *id)),
+            Op::Lookup {
+                table,
+                delta: true,
+                idx,
+            } if !layouts[table].deltas => {
+                if let Some(&(_, _, t)) = samples.iter().rev().find(|s| s.0 == table && s.1 == idx)
+                {
+                    pairs.insert(*id, t);
+                }
+            }
+            _ => {}
+        }
     }
+    pairs
 }
 
-fn block(plan: &Plan, stmts: &[LStmt], depth: usize, samples: &mut Samples, o: &mut String) {
+fn block(plan: &Plan, stmts: &[LStmt], depth: usize, o: &mut String) {
     let ind = indent(depth);
+    let pairs = compact_pairs(plan, stmts);
     for s in stmts {
         match s {
             LStmt::Def(id) => {
                 let v = plan.val(*id);
-                if let Op::Lookup {
-                    table,
-                    delta: false,
-                    idx,
-                } = v.op
-                {
-                    samples.0.push((table, idx, *id));
+                let pair = pairs.get(id).copied();
+                if let Op::Lookup { idx, .. } = v.op {
+                    if pairs.values().any(|t| t == id) {
+                        let _ = writeln!(o, "{ind}//@ split {};", name(plan, idx));
+                    }
                 }
                 let ty = if v.boolean {
                     "bool".to_string()
@@ -725,10 +758,13 @@ fn block(plan: &Plan, stmts: &[LStmt], depth: usize, samples: &mut Samples, o: &
                 } else if v.network {
                     // Shifted terms stay opaque, so the compiler cannot fold a shift-add
                     // network back into a multiply (see QLOOP_KEEP).
-                    let _ = writeln!(o, "{ind}{ty} {nm} = {};", expr(plan, *id, samples));
+                    let _ = writeln!(o, "{ind}{ty} {nm} = {};", expr(plan, *id, pair));
                     let _ = writeln!(o, "{ind}QLOOP_KEEP({nm});");
                 } else {
-                    let _ = writeln!(o, "{ind}const {ty} {nm} = {};", expr(plan, *id, samples));
+                    let _ = writeln!(o, "{ind}const {ty} {nm} = {};", expr(plan, *id, pair));
+                }
+                if let (Some(_), Op::Lookup { idx, .. }) = (pair, &v.op) {
+                    let _ = writeln!(o, "{ind}//@ merge {};", name(plan, *idx));
                 }
             }
             LStmt::Store(sig, id) => {
@@ -741,15 +777,12 @@ fn block(plan: &Plan, stmts: &[LStmt], depth: usize, samples: &mut Samples, o: &
             }
             LStmt::If(c, t, e) => {
                 let _ = writeln!(o, "{ind}if ({}) {{", name(plan, *c));
-                let scope = samples.0.len();
-                block(plan, t, depth + 1, samples, o);
-                samples.0.truncate(scope);
+                block(plan, t, depth + 1, o);
                 if e.is_empty() {
                     let _ = writeln!(o, "{ind}}}");
                 } else {
                     let _ = writeln!(o, "{ind}}} else {{");
-                    block(plan, e, depth + 1, samples, o);
-                    samples.0.truncate(scope);
+                    block(plan, e, depth + 1, o);
                     let _ = writeln!(o, "{ind}}}");
                 }
             }
@@ -875,7 +908,9 @@ fn name(plan: &Plan, id: ValId) -> String {
 }
 
 /// The expression defining value `id`; the result always has the value's own type.
-fn expr(plan: &Plan, id: ValId, samples: &Samples) -> String {
+/// `pair`: the read of `T[i]` that a difference read as `T[i + 1] − T[i]` reuses
+/// ([`compact_pairs`]).
+fn expr(plan: &Plan, id: ValId, pair: Option<ValId>) -> String {
     let v = plan.val(id);
     let t = c_ty(v.ty);
     let n = |x: &ValId| name(plan, *x);
@@ -889,7 +924,7 @@ fn expr(plan: &Plan, id: ValId, samples: &Samples) -> String {
             // fits it, so the subtraction is exact (in `int` for a narrower type).
             let bits = plan.tables[*table].format.ty.bits;
             let (arr, i) = (table_array(plan, *table, false), n(idx));
-            let ti = samples.find(*table, *idx).map_or_else(
+            let ti = pair.map_or_else(
                 || format!("QLOOP_READ_{bits}({arr}, {i})"),
                 |v| name(plan, v),
             );
