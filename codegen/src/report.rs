@@ -89,10 +89,7 @@ fn tables(plan: &Plan) -> String {
     let mut o = String::from(
         "\nTables (linear interpolation; the error column adds the interpolation error):\n",
     );
-    let (layouts, read) = (
-        qloop_core::emit::table_layouts(plan),
-        qloop_core::emit::table_arrays_read(plan),
-    );
+    let layouts = qloop_core::emit::table_layouts(plan);
     for t in &p.tables {
         let arrays: Vec<String> = plan
             .tables
@@ -101,7 +98,7 @@ fn tables(plan: &Plan) -> String {
             .filter(|(_, l)| p.tables[l.table].name == t.name)
             .map(|(i, l)| {
                 let n = l.entries.len();
-                if read[i][1] && !layouts[i].deltas {
+                if layouts[i].saved > 0 {
                     format!(
                         "{n} x {}, its differences read as T[i+1] - T[i], not stored ({} B of \
                          flash saved for a subtraction a read: the target's flash_per_cycle)",
