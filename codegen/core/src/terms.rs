@@ -455,10 +455,51 @@ pub fn mentions(t: &Rc<T>, names: &[String]) -> bool {
         .any(|v| matches!(&**v, T::Var(n, ..) if names.contains(n)))
 }
 
+/// A product of the program ([`Op::Mul`]) or of a property read as the program reads it
+/// (`PropTerms::distribute` off): [`mul`], distributed, where a factor is a sum with a product
+/// among its terms, so that `a·(b·c − d·e)` (a determinant expanded by minors) is the
+/// polynomial `a·b·c − a·d·e` that a property's expansion of the same determinant gives;
+/// otherwise one [`product`] node.
+pub fn program_product(a: Rc<T>, b: Rc<T>) -> Rc<T> {
+    fn polynomial(t: &T) -> bool {
+        match t {
+            T::Sum(terms, _) => terms.iter().any(|(_, x)| matches!(**x, T::Mul(..))),
+            _ => false,
+        }
+    }
+    if polynomial(&a) || polynomial(&b) {
+        mul(a, b)
+    } else {
+        product(a, b)
+    }
+}
+
 /// Product without distribution, in canonical operand order.
 pub fn product(a: Rc<T>, b: Rc<T>) -> Rc<T> {
     match (&*a, &*b) {
         (T::Const(x), T::Const(y)) => Rc::new(T::Const(x * y)),
+        (T::Mul(..), _) | (_, T::Mul(..)) => {
+            // A monomial of three or more factors: its factors sorted, multiplied left to
+            // right, so that a monomial is one term whichever order its factors were
+            // multiplied in (a determinant expanded by minors and one by Leibniz's formula
+            // give the same polynomial).
+            fn factors(t: &Rc<T>, out: &mut Vec<Rc<T>>) {
+                match &**t {
+                    T::Mul(x, y) => {
+                        factors(x, out);
+                        factors(y, out);
+                    }
+                    _ => out.push(t.clone()),
+                }
+            }
+            let mut fs = Vec::new();
+            factors(&a, &mut fs);
+            factors(&b, &mut fs);
+            fs.sort();
+            let mut it = fs.into_iter();
+            let first = it.next().unwrap_or(a);
+            it.fold(first, |acc, f| Rc::new(T::Mul(acc, f)))
+        }
         _ if a <= b => Rc::new(T::Mul(a, b)),
         _ => Rc::new(T::Mul(b, a)),
     }
@@ -637,8 +678,10 @@ fn def(plan: &Plan, id: ValId, env: &BTreeMap<SigId, Rc<T>>, t: &mut Terms) {
         Op::Shl(a, k) => shl(g(a), *k),
         Op::Shr(a, k) => Rc::new(T::Shr(g(a), *k)),
         // The program's own products stay single terms (canonical order only): distributing
-        // them hides simple arguments such as a product's sign.
-        Op::Mul(a, b) => product(g(a), g(b)),
+        // them hides simple arguments such as a product's sign. A factor that is itself a
+        // sum of products (a minor of a `det` expanded by minors) is distributed over
+        // ([`program_product`]), as a property's product is.
+        Op::Mul(a, b) => program_product(g(a), g(b)),
         Op::Min(a, b) => ite(Rc::new(B::Cmp(CmpOp::Lt, g(a), g(b))), g(a), g(b)),
         Op::Max(a, b) => ite(Rc::new(B::Cmp(CmpOp::Lt, g(a), g(b))), g(b), g(a)),
         Op::Select(c, a, b) => ite(gb(c), g(a), g(b)),
@@ -776,7 +819,7 @@ impl ExactDomain for &PropTerms<'_> {
             t: if self.distribute || constant {
                 mul(a.t, b.t)
             } else {
-                product(a.t, b.t)
+                program_product(a.t, b.t)
             },
             frac: a.frac + b.frac,
         })

@@ -455,6 +455,38 @@ struct Lowerer<'a> {
     /// The spec site of what is being lowered (a statement, a condition, an input's
     /// declaration): where an error without a site of its own points.
     here: Span,
+    /// The arithmetic values of the statement being lowered, by their definition
+    /// ([`cse_key`]): an expression that repeats a subexpression (a `det` expanded by minors)
+    /// computes it once. Cleared at every statement, so that a value is reused only in the
+    /// statement list that defines it, and the copies of a `for` body stay alike.
+    cse: HashMap<String, ValId>,
+}
+
+/// The key of a value for [`Lowerer::push`]'s reuse within a statement: its operation,
+/// type, binary point, interval and error bound. `None` for what is never merged: inputs,
+/// loads, constants, table reads, comparisons and Boolean operations (each comparison has
+/// a decision number of its own).
+fn cse_key(v: &NewVal) -> Option<String> {
+    match v.op {
+        Op::Cast(_)
+        | Op::Add(..)
+        | Op::Sub(..)
+        | Op::Neg(_)
+        | Op::Shl(..)
+        | Op::Shr(..)
+        | Op::Mul(..)
+        | Op::Min(..)
+        | Op::Max(..) => Some(format!(
+            "{:?} {} {} {} {} {}",
+            v.op,
+            v.ty,
+            v.frac,
+            v.lo,
+            v.hi,
+            v.err.to_bits()
+        )),
+        _ => None,
+    }
 }
 
 struct Lowered {
@@ -550,6 +582,7 @@ impl<'a> Lowerer<'a> {
             line: 0,
             decisions: 0,
             here: Span::call_site(),
+            cse: HashMap::new(),
         }
     }
 
@@ -644,7 +677,24 @@ impl<'a> Lowerer<'a> {
             !matches!(op, Op::Shl(_, k) | Op::Shr(_, k) if k >= ty.bits),
             "{op:?}: a shift as wide as its {ty} operand"
         );
+        let key = cse_key(&NewVal {
+            op: op.clone(),
+            ty,
+            frac,
+            lo,
+            hi,
+            err,
+        });
+        if let Some(&id) = key.as_ref().and_then(|k| self.cse.get(k)) {
+            let w = &self.vals[id.0];
+            if w.name.is_none() && !w.claimed && !w.network && !w.boolean {
+                return id;
+            }
+        }
         let id = ValId(self.vals.len());
+        if let Some(k) = key {
+            self.cse.insert(k, id);
+        }
         self.vals.push(Val {
             op,
             ty,
@@ -753,6 +803,7 @@ impl<'a> Lowerer<'a> {
     // ---- statements ------------------------------------------------------------------
 
     fn stmt(&mut self, s: &Stmt, out: &mut Vec<LStmt>) -> Result<()> {
+        self.cse.clear();
         match s {
             Stmt::Assign {
                 target,
