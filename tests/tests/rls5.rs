@@ -3,7 +3,7 @@
 //! (β ≠ 0) of issue 17's multi-model controller (Rubio & De la Sen, eq. 11), the n = 5
 //! case of tests/rls4.rs, checked the same way, and the `det` built-in it rests on:
 //!
-//! * `det`: the expansion (Leibniz, products merged) equals the determinant by cofactors,
+//! * `det`: the expansion (by minors in `step`) equals the determinant by cofactors,
 //!   for general and symmetric matrices and every leading minor;
 //! * proof: every obligation, the five leading principal minors of P among them (Sylvester's
 //!   criterion, each minor exact in 64 bits), by both solvers;

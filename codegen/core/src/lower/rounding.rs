@@ -62,6 +62,9 @@ impl Lowerer<'_> {
         if n == 0 {
             return Ok(v);
         }
+        if let Some(r) = self.round_then_clamp(v, n, span, out)? {
+            return Ok(r);
+        }
         let x = self.v(v).clone();
         let (lo, hi) = self.rounded(x.lo, x.hi, n);
         let frac = x.frac - n as i32;
@@ -192,6 +195,89 @@ impl Lowerer<'_> {
             },
             out,
         )
+    }
+
+    /// `round(clamp(x, LO, HI))` computed as `clamp(round(x), round(LO), round(HI))` (either
+    /// bound alone too: `min`, `max` with a constant), where the rounded `x` fits a narrower
+    /// word than the clamp: the comparisons then run in that word (on the Cortex-M4 a 64-bit
+    /// bound is five instructions, a 32-bit one three; on the AVR a library call). The same
+    /// value, error bound and interval: the program's rounding is a non-decreasing function
+    /// `g`, and `g(clamp(x, LO, HI)) = clamp(g(x), g(LO), g(HI))` for every `x` (below `LO`,
+    /// `g(x) ≤ g(LO)`; above `HI`, `g(x) ≥ g(HI)`). `None` where the pattern or the gain is
+    /// absent, or `v` is a named or claimed value.
+    fn round_then_clamp(
+        &mut self,
+        v: ValId,
+        n: u32,
+        span: Span,
+        out: &mut Vec<LStmt>,
+    ) -> Result<Option<ValId>> {
+        let x = self.v(v).clone();
+        if x.name.is_some() || x.claimed || x.boolean {
+            return Ok(None);
+        }
+        let konst = |me: &Self, id: ValId| match me.v(id).op {
+            Op::Const(c) => Some(c),
+            _ => None,
+        };
+        // Through the widening casts `clamp` puts before each side.
+        let strip = |me: &Self, mut id: ValId| {
+            while let Op::Cast(a) = me.v(id).op {
+                let w = me.v(id);
+                let src = me.v(a);
+                if w.name.is_some() || w.claimed || src.ty.bits > w.ty.bits || src.frac != w.frac {
+                    break;
+                }
+                id = a;
+            }
+            id
+        };
+        let (mut lo, mut hi, mut cur) = (None, None, v);
+        for _ in 0..2 {
+            match self.v(cur).op {
+                Op::Min(a, c) if hi.is_none() && konst(self, c).is_some() => {
+                    hi = konst(self, c);
+                    cur = strip(self, a);
+                }
+                Op::Max(a, c) if lo.is_none() && konst(self, c).is_some() => {
+                    lo = konst(self, c);
+                    cur = strip(self, a);
+                }
+                _ => break,
+            }
+        }
+        if cur == v || self.v(cur).frac != x.frac || self.v(cur).boolean {
+            return Ok(None);
+        }
+        let inner = self.v(cur).clone();
+        let (rl, rh) = self.rounded(inner.lo, inner.hi, n);
+        let narrower = IntTy::signed_for(rl, rh, self.target.min_work_bits())
+            .is_some_and(|t| t.bits < x.ty.bits);
+        if !narrower {
+            return Ok(None);
+        }
+        let bound = |c: Option<i128>, none: i128| c.map_or(none, |c| self.rounded(c, c, n).0);
+        let (bl, bh) = (bound(lo, i128::MIN), bound(hi, i128::MAX));
+        // Each bound inside the rounded range (else the clamp's constant may not fit the
+        // clamp's word, and the value is a constant anyway).
+        if bl > bh || (lo.is_some() && bl > rh) || (hi.is_some() && bh < rl) {
+            return Ok(None);
+        }
+        let r = self.round(cur, n, span, out)?;
+        let r = self.clamp(r, bl, bh, out)?;
+        let (want_lo, want_hi) = self.rounded(x.lo, x.hi, n);
+        let got = self.v(r);
+        debug_assert!(
+            got.lo == want_lo && got.hi == want_hi,
+            "round then clamp: [{}, {}] against [{want_lo}, {want_hi}]",
+            got.lo,
+            got.hi
+        );
+        if got.lo != want_lo || got.hi != want_hi {
+            // Not expected (the identity holds for intervals too); keep the plain form.
+            return Ok(None);
+        }
+        Ok(Some(r))
     }
 
     /// `v` re-expressed with `frac` fraction bits.
