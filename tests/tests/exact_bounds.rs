@@ -154,7 +154,8 @@ test_tools::spec_tests! {
         clamp_gap, division_method, flag_continuous, flag_not_binary, infinite_const, infinite_product, newton_recip_range_spans_zero, newton_steps,
         no_input, no_state,
         pinned_let_type, recip_method, s21_zero_const, threshold_ge, thresholds_all_ops,
-        table_cancellation, table_dead_and_constant, table_on_grid, tiny_factor_chain,
+        table_cancellation, table_dead_and_constant, table_error_after_clamp, table_on_grid,
+        tiny_factor_chain,
         tiny_period, tiny_range, truncated, u64_input, unbalanced, underflow_exp,
         underflow_literal, vanishing_addend, vector_33,
     ];

@@ -68,12 +68,7 @@ impl Lowerer<'_> {
         let x = self.v(v).clone();
         let (lo, hi) = self.rounded(x.lo, x.hi, n);
         let frac = x.frac - n as i32;
-        let lsb_src = pow2(-x.frac);
-        // The most one rounding adds: floor drops up to 2^n - 1 source LSBs, nearest half of 2^n.
-        let added = match self.prog.rounding {
-            Rounding::Floor => (pow2(n as i32) - 1.0) * lsb_src,
-            Rounding::Nearest => pow2(n as i32 - 1) * lsb_src,
-        };
+        let added = self.rounding_added(x.frac, n);
         if lo == hi {
             let err = if x.lo == x.hi && n <= 126 {
                 // A constant rounded at compile time: its exact rounding error, from the
@@ -197,6 +192,16 @@ impl Lowerer<'_> {
         )
     }
 
+    /// The most one rounding of `n` bits adds to a value with `frac` fraction bits: floor drops
+    /// up to 2^n − 1 source LSBs, nearest half of 2^n.
+    fn rounding_added(&self, frac: i32, n: u32) -> f64 {
+        let lsb_src = pow2(-frac);
+        match self.prog.rounding {
+            Rounding::Floor => (pow2(n as i32) - 1.0) * lsb_src,
+            Rounding::Nearest => pow2(n as i32 - 1) * lsb_src,
+        }
+    }
+
     /// `round(clamp(x, LO, HI))` computed as `clamp(round(x), round(LO), round(HI))` (either
     /// bound alone too: `min`, `max` with a constant), where the rounded `x` fits a narrower
     /// word than the clamp: the comparisons then run in that word (on the Cortex-M4 a 64-bit
@@ -263,8 +268,31 @@ impl Lowerer<'_> {
         if bl > bh || (lo.is_some() && bl > rh) || (hi.is_some() && bh < rl) {
             return Ok(None);
         }
+        let first_new = self.vals.len();
         let r = self.round(cur, n, span, out)?;
-        let r = self.clamp(r, bl, bh, out)?;
+        let mut r = self.clamp(r, bl, bh, out)?;
+        // The error bound is the clamp's own, rounded: `x`'s bound can hold more than its
+        // operand's (a table look-up's interpolation error is set on its final clamp).
+        let err = err_bound::add(x.err, self.rounding_added(x.frac, n)).max(self.v(r).err);
+        if self.v(r).err != err {
+            if r.0 < first_new {
+                // A value the statement computed before: a copy of it carries the bound.
+                let y = self.v(r).clone();
+                r = self.push(
+                    NewVal {
+                        op: Op::Cast(r),
+                        ty: y.ty,
+                        frac: y.frac,
+                        lo: y.lo,
+                        hi: y.hi,
+                        err,
+                    },
+                    out,
+                );
+            } else {
+                self.vals[r.0].err = err;
+            }
+        }
         let (want_lo, want_hi) = self.rounded(x.lo, x.hi, n);
         let got = self.v(r);
         debug_assert!(
