@@ -60,7 +60,7 @@ fn minor(rows: &[Vec<Expr>], cols: u32, span: Span) -> Expr {
     let mut terms: Vec<(bool, Expr)> = Vec::new();
     for (t, &j) in js.iter().enumerate() {
         let a = &rows[r - 1][j];
-        if is_literal_zero(a) {
+        if literal_number(a) == Some(0.0) {
             continue;
         }
         let sub = minor(rows, cols & !(1 << j), span);
@@ -152,19 +152,6 @@ fn leibniz(rows: &[Vec<Expr>], k: usize, span: Span) -> Expr {
         });
     }
     acc.unwrap_or_else(|| syn::parse_quote_spanned!(span=> 0.0))
-}
-
-/// Whether `e` is the literal `0`, `0.0` (or a parenthesised one).
-fn is_literal_zero(e: &Expr) -> bool {
-    match e {
-        Expr::Paren(p) => is_literal_zero(&p.expr),
-        Expr::Lit(l) => match &l.lit {
-            syn::Lit::Float(f) => f.base10_parse::<f64>().is_ok_and(|v| v == 0.0),
-            syn::Lit::Int(i) => i.base10_parse::<i64>().is_ok_and(|v| v == 0),
-            _ => false,
-        },
-        _ => false,
-    }
 }
 
 /// The permutations of `0..k` in lexicographic order, each with its sign.

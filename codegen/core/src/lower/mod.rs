@@ -781,6 +781,23 @@ impl<'a> Lowerer<'a> {
         })
     }
 
+    /// A copy of `v` (a cast to its own type) with error bound `err`: a value of its own, for
+    /// a name or a bound that `v`, defined before and used elsewhere, must not take.
+    fn copy(&mut self, v: ValId, err: f64, out: &mut Vec<LStmt>) -> ValId {
+        let y = self.v(v).clone();
+        self.push(
+            NewVal {
+                op: Op::Cast(v),
+                ty: y.ty,
+                frac: y.frac,
+                lo: y.lo,
+                hi: y.hi,
+                err,
+            },
+            out,
+        )
+    }
+
     /// `v` converted to type `ty` (a no-op if it already has it).
     fn cast(&mut self, v: ValId, ty: IntTy, out: &mut Vec<LStmt>) -> ValId {
         let x = self.v(v).clone();
@@ -854,18 +871,8 @@ impl<'a> Lowerer<'a> {
                     }
                     // Give the binding its own name in the emitted code.
                     if self.vals[v.0].name.is_some() {
-                        let y = self.v(v).clone();
-                        v = self.push(
-                            NewVal {
-                                op: Op::Cast(v),
-                                ty: y.ty,
-                                frac: y.frac,
-                                lo: y.lo,
-                                hi: y.hi,
-                                err: y.err,
-                            },
-                            out,
-                        );
+                        let err = self.v(v).err;
+                        v = self.copy(v, err, out);
                     }
                     self.vals[v.0].name = Some(sig.name.clone());
                     self.locals.insert(*target, v);

@@ -277,18 +277,7 @@ impl Lowerer<'_> {
         if self.v(r).err != err {
             if r.0 < first_new {
                 // A value the statement computed before: a copy of it carries the bound.
-                let y = self.v(r).clone();
-                r = self.push(
-                    NewVal {
-                        op: Op::Cast(r),
-                        ty: y.ty,
-                        frac: y.frac,
-                        lo: y.lo,
-                        hi: y.hi,
-                        err,
-                    },
-                    out,
-                );
+                r = self.copy(r, err, out);
             } else {
                 self.vals[r.0].err = err;
             }
