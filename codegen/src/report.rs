@@ -197,7 +197,7 @@ pub fn op_counts(plan: &Plan) -> OpCounts {
                 LStmt::Def(id) => match plan.val(*id).op {
                     Op::Add(..) | Op::Sub(..) | Op::Neg(..) => c.add += 1,
                     Op::Shl(..) | Op::Shr(..) => c.shift += 1,
-                    Op::Mul(..) => c.mul += 1,
+                    Op::Mul(..) | Op::MulHi(..) => c.mul += 1,
                     Op::Min(..) | Op::Max(..) | Op::Select(..) | Op::Cmp(..) => c.cmp += 1,
                     _ => {}
                 },

@@ -137,6 +137,7 @@ impl Machine<'_> {
             Op::Shl(a, k) => g(*a) << k,
             Op::Shr(a, k) => g(*a) >> k,
             Op::Mul(a, b) => g(*a) * g(*b),
+            Op::MulHi(a, b) => crate::lower::lir::mul_hi(g(*a), g(*b)),
             Op::Min(a, b) => g(*a).min(g(*b)),
             Op::Max(a, b) => g(*a).max(g(*b)),
             Op::Select(c, a, b) => {

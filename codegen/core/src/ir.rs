@@ -101,6 +101,9 @@ pub struct Table {
     pub witness: (f64, f64),
     /// Doc lines.
     pub docs: Vec<String>,
+    /// The samples' format pinned by `#[q(TYPE, FRAC)]` (checked to hold every sample
+    /// rounded to nearest), instead of the best one in the default word.
+    pub format: Option<QFormat>,
     /// Declaration site.
     pub span: Span,
 }
@@ -126,6 +129,9 @@ impl Table {
     /// `word`-bit words, the range widened by its magnitude (at least 1) when every sample is
     /// the same; `None` if no format of that width holds them.
     pub fn stored_format(&self, word: u32) -> Option<QFormat> {
+        if self.format.is_some() {
+            return self.format;
+        }
         let (lo, hi) = self.sample_hull(0, self.samples.len().saturating_sub(1));
         let pad = if lo == hi { lo.abs().max(1.0) } else { 0.0 };
         QFormat::best_for(crate::qformat::IntTy::signed(word), lo - pad, hi + pad)

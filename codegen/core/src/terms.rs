@@ -682,6 +682,18 @@ fn def(plan: &Plan, id: ValId, env: &BTreeMap<SigId, Rc<T>>, t: &mut Terms) {
         // sum of products (a minor of a `det` expanded by minors) is distributed over
         // ([`program_product`]), as a property's product is.
         Op::Mul(a, b) => program_product(g(a), g(b)),
+        // `lower::lir::mul_hi`: h(x) = x >> 16, l(x) = x − (h(x) << 16).
+        Op::MulHi(a, b) => {
+            let h = |x: Rc<T>| Rc::new(T::Shr(x, 16));
+            let l = |x: Rc<T>| sub(x.clone(), shl(h(x), 16));
+            let (ha, hb) = (h(g(a)), h(g(b)));
+            // Pieces as single products (never distributed: the halves of a sum of products
+            // multiplied out would be polynomials of a degree the interval encodings cannot
+            // size).
+            let hl = Rc::new(T::Shr(product(ha.clone(), l(g(b))), 16));
+            let lh = Rc::new(T::Shr(product(l(g(a)), hb.clone()), 16));
+            add(add(product(ha, hb), hl), lh)
+        }
         Op::Min(a, b) => ite(Rc::new(B::Cmp(CmpOp::Lt, g(a), g(b))), g(a), g(b)),
         Op::Max(a, b) => ite(Rc::new(B::Cmp(CmpOp::Lt, g(a), g(b))), g(b), g(a)),
         Op::Select(c, a, b) => ite(gb(c), g(a), g(b)),

@@ -348,6 +348,9 @@ fn body(plan: &Plan, include: bool) -> String {
     if wide::multiplies(plan) {
         o.push_str(&wide::product_helper().replace("qloop_", &format!("qloop_{n}_")));
     }
+    if wide::high_products(plan) {
+        o.push_str(&wide::high_product_helper().replace("qloop_", &format!("qloop_{n}_")));
+    }
     o.push_str(&table_arrays(plan));
     for (k, r) in em.repeats.iter().enumerate() {
         o.push_str(&loop_fn(plan, k, r));
@@ -917,6 +920,7 @@ fn expr(plan: &Plan, id: ValId, pair: Option<ValId>) -> String {
     match &v.op {
         Op::Input(s) => format!("in->{}", field(&plan.prog, *s)),
         Op::Low(a, k) => format!("({t})({} & {})", n(a), c_lit((1i128 << k) - 1, v.ty)),
+        Op::MulHi(a, b) => format!("qloop_{}_mulhi({}, {})", plan.prog.name, n(a), n(b)),
         Op::Lookup { table, delta, idx }
             if *delta && !super::table_layouts(plan)[*table].deltas =>
         {

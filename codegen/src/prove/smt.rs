@@ -190,6 +190,7 @@ fn op_term(plan: &Plan, id: ValId, env: &BTreeMap<SigId, String>) -> String {
         Op::Shl(a, k) => format!("(bvshl {} {})", n(a), lit(*k as i128, w)),
         Op::Shr(a, k) => format!("(bvashr {} {})", n(a), lit(*k as i128, w)),
         Op::Mul(a, b) => format!("(bvmul {} {})", n(a), n(b)),
+        Op::MulHi(a, b) => mul_hi_term(&n(a), &n(b), w),
         Op::Min(a, b) => format!("(ite (bvslt {a} {b}) {a} {b})", a = n(a), b = n(b)),
         Op::Max(a, b) => format!("(ite (bvslt {a} {b}) {b} {a})", a = n(a), b = n(b)),
         Op::Select(c, a, b) => format!("(ite {} {} {})", n(c), n(a), n(b)),
@@ -203,6 +204,18 @@ fn op_term(plan: &Plan, id: ValId, env: &BTreeMap<SigId, String>) -> String {
             lookup_term(plan, *table, *delta, &n(idx), iv.ty.bits, (iv.lo, iv.hi), w)
         }
     }
+}
+
+/// [`qloop_core::lower::lir::mul_hi`] of two `w`-bit terms (`w ≥ 32`), bit for bit: each
+/// piece and the sum fit 32 bits for operands of `i32`, so no operation wraps.
+fn mul_hi_term(a: &str, b: &str, w: u32) -> String {
+    let k = lit(16, w);
+    let m = lit(0xFFFF, w);
+    format!(
+        "(let ((ha (bvashr {a} {k})) (hb (bvashr {b} {k}))) \
+         (bvadd (bvadd (bvmul ha hb) (bvashr (bvmul ha (bvand {b} {m})) {k})) \
+         (bvashr (bvmul (bvand {a} {m}) hb) {k})))"
+    )
 }
 
 /// Entry `idx` of a table array as a balanced `ite` tree over the index's interval `lo..=hi`
@@ -274,6 +287,11 @@ pub fn exact_term(
             let mag = |t: &str, neg: &str| format!("(ite {neg} (bvneg {t}) {t})");
             let m = format!("(bvmul {} {})", mag(&x, &na), mag(&y, &nb));
             (format!("(ite (xor {na} {nb}) (bvneg {m}) {m})"), w)
+        }
+        // Exact at 33 bits: the operands fit 32, every piece and the sum 32 (signed).
+        Op::MulHi(a, b) => {
+            let w = wid(a).max(wid(b)).max(32) + 1;
+            (mul_hi_term(&sx(a, w), &sx(b, w), w), w)
         }
         Op::Shl(a, k) => {
             let w = wid(a) + k;

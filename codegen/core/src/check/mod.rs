@@ -315,7 +315,15 @@ impl Checker {
         let (site, kind, k) = split_step_name(n)?;
         let k: u32 = k.parse().ok()?;
         let c = |name: String| self.consts.get(&name).map(|c| c.0);
-        let (lo, hi) = if kind == 'r' {
+        let (lo, hi) = if kind == 'r' && k == 0 {
+            // A table seed in the default word too, whatever its samples' format (a
+            // `#[q(i16, ..)]` table), so that the first step's products are of full words.
+            let r = self
+                .recip_sites
+                .iter()
+                .find(|r| r.lets[0] == format!("{site}_d"))?;
+            self.table_hull(r.seed_table.as_ref()?, &r.lo, &r.hi)?
+        } else if kind == 'r' {
             (c(format!("{site}_lo{k}"))?, c(format!("{site}_hi{k}"))?)
         } else {
             let r = self

@@ -126,6 +126,7 @@ impl Checker {
         }
         // h²/8 is exact (h is a power of two); the product and the sum round up.
         let interp_err = f64_up(&(rat(interp.next_up()) + sample_err));
+        let format = self.table_format(t, &samples)?;
         // A witness: a lower bound on |L(x) − f(x)| at the grid points (their enclosures from
         // above) and 7 points inside each segment, L exact over the samples and f enclosed.
         // Where f'' dominates, |L − f| on a segment is a parabola with its peak near the
@@ -182,6 +183,7 @@ impl Checker {
             claim_bounds: claim.map(|c| (c.1, c.2)),
             witness,
             docs: doc_lines(&t.attrs),
+            format,
             span: t.name.span(),
         });
         self.table_units.push((in_unit, out_unit));
@@ -286,6 +288,69 @@ impl Checker {
 }
 
 /// Whether `e` mentions `var`.
+impl Checker {
+    /// A table's pinned sample format, `#[q(TYPE, FRAC)]`: a signed type that holds every
+    /// sample rounded to nearest. Every other attribute but doc comments is refused, at it.
+    fn table_format(
+        &self,
+        t: &TableDecl,
+        samples: &[f64],
+    ) -> Result<Option<crate::qformat::QFormat>> {
+        for a in &t.attrs {
+            let p = a.path();
+            if !(p.is_ident("doc") || p.is_ident("q")) {
+                return Err(Diag::new(a.span(), "unknown attribute on a `table`").help(
+                    "a table takes `#[q(TYPE, FRAC)]`, the format of its samples (for example \
+                     `#[q(i16, 14)]` to store them in 16 bits)",
+                ));
+            }
+        }
+        let Some(q) = super::fmt_attrs(&t.attrs, &|e| self.const_eval(e))?.pin else {
+            return Ok(None);
+        };
+        let span = t
+            .attrs
+            .iter()
+            .find(|a| a.path().is_ident("q"))
+            .map_or(t.name.span(), |a| a.span());
+        if !q.ty.signed || q.ty.bits > 32 {
+            return Err(Diag::new(
+                span,
+                format!(
+                    "a table's samples are signed words of at most 32 bits, not {}",
+                    q.ty
+                ),
+            )
+            .help("pin `i8`, `i16` or `i32`"));
+        }
+        let (lo, hi) = samples
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                (a.min(v), b.max(v))
+            });
+        let (rl, rh) = (q.raw_nearest(lo), q.raw_nearest(hi));
+        if !q.ty.holds(rl, rh) {
+            let best = crate::qformat::QFormat::best_for(q.ty, lo, hi);
+            let mut d = Diag::new(
+                span,
+                format!(
+                    "the samples of table `{}` span [{lo:e}, {hi:e}], which Q({}, {}) cannot hold",
+                    t.name, q.ty, q.frac
+                ),
+            )
+            .label("too few integer bits");
+            if let Some(b) = best {
+                d = d.help(format!(
+                    "at most {} fraction bits in {}: `#[q({}, {})]`",
+                    b.frac, q.ty, q.ty, b.frac
+                ));
+            }
+            return Err(d);
+        }
+        Ok(Some(q))
+    }
+}
+
 fn uses_var(e: &SExpr, var: &str) -> bool {
     struct Find<'a>(&'a str, bool);
     impl<'v> syn::visit::Visit<'v> for Find<'_> {

@@ -675,6 +675,14 @@ fn op_expr(plan: &Plan, id: ValId) -> TokenStream {
                 quote! { #a * #b }
             }
         }
+        Op::MulHi(a, b) => {
+            // `lower::lir::mul_hi`: three 16x16 -> 32 pieces, each proved to fit `i32`.
+            let (a, b) = (n(a), n(b));
+            quote! {{
+                let (ha, hb) = (#a >> 16, #b >> 16);
+                ha * hb + ((ha * (#b & 0xFFFF)) >> 16) + (((#a & 0xFFFF) * hb) >> 16)
+            }}
+        }
         Op::Min(a, b) => {
             let (a, b) = (n(a), n(b));
             quote! { ::core::cmp::min(#a, #b) }

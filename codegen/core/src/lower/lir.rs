@@ -71,6 +71,11 @@ pub enum Op {
     Shr(ValId, u32),
     /// `a * b`, both operands already widened to the product type.
     Mul(ValId, ValId),
+    /// The high word of the product of two `i32` values, from three 16×16→32 pieces
+    /// ([`mul_hi`]): an `i32` within `(a·b/2^32 − 3, a·b/2^32]`. Where the target's 64-bit
+    /// arithmetic is library calls, a product rounded to 32 bits is this, not a
+    /// 32×32→64-bit `Mul` and a shift.
+    MulHi(ValId, ValId),
     /// `min(a, b)`
     Min(ValId, ValId),
     /// `max(a, b)`
@@ -115,6 +120,7 @@ impl Op {
             Op::Add(a, b)
             | Op::Sub(a, b)
             | Op::Mul(a, b)
+            | Op::MulHi(a, b)
             | Op::Min(a, b)
             | Op::Max(a, b)
             | Op::Cmp(_, a, b)
@@ -142,6 +148,7 @@ impl Op {
             Op::Add(a, b) => Op::Add(f(a), f(b)),
             Op::Sub(a, b) => Op::Sub(f(a), f(b)),
             Op::Mul(a, b) => Op::Mul(f(a), f(b)),
+            Op::MulHi(a, b) => Op::MulHi(f(a), f(b)),
             Op::Min(a, b) => Op::Min(f(a), f(b)),
             Op::Max(a, b) => Op::Max(f(a), f(b)),
             Op::Cmp(op, a, b) => Op::Cmp(op, f(a), f(b)),
@@ -150,6 +157,33 @@ impl Op {
             Op::Select(c, a, b) => Op::Select(f(c), f(a), f(b)),
         }
     }
+}
+
+/// [`Op::MulHi`] of two values of `i32`, exactly as every emitter computes it: with
+/// `h(x) = floor(x / 2^16)` (in `[−2^15, 2^15)`) and `l(x) = x − 2^16·h(x)` (in `[0, 2^16)`),
+///
+/// ```text
+///     mul_hi(a, b) = h(a)·h(b) + floor(h(a)·l(b) / 2^16) + floor(l(a)·h(b) / 2^16).
+/// ```
+///
+/// Since `a·b = 2^32·h(a)·h(b) + 2^16·(h(a)·l(b) + l(a)·h(b)) + l(a)·l(b)`, the difference
+/// `a·b/2^32 − mul_hi(a, b)` is the two floors' fractions plus `l(a)·l(b)/2^32`: in `[0, 3)`.
+/// Every piece fits `i32` (`|h(a)·h(b)| ≤ 2^30`, `|h(a)·l(b)| < 2^31`), and so does the
+/// sum (below `2^30 + 2^16` in magnitude), for every pair of `i32` operands.
+pub fn mul_hi(a: i128, b: i128) -> i128 {
+    let (ha, hb) = (a >> 16, b >> 16);
+    let (la, lb) = (a & 0xFFFF, b & 0xFFFF);
+    ha * hb + ((ha * lb) >> 16) + ((la * hb) >> 16)
+}
+
+/// The interval of [`mul_hi`] over `a` in `[al, ah]` and `b` in `[bl, bh]`: from the exact
+/// product's, `[floor(min a·b / 2^32) − 2, floor(max a·b / 2^32)]` (the value is an integer
+/// in `(a·b/2^32 − 3, a·b/2^32]`).
+pub fn mul_hi_range(a: (i128, i128), b: (i128, i128)) -> (i128, i128) {
+    let c = [a.0 * b.0, a.0 * b.1, a.1 * b.0, a.1 * b.1];
+    let lo = *c.iter().min().unwrap_or(&0);
+    let hi = *c.iter().max().unwrap_or(&0);
+    ((lo >> 32) - 2, hi >> 32)
 }
 
 /// A statement of the plan.
@@ -161,4 +195,91 @@ pub enum LStmt {
     Store(SigId, ValId),
     /// Branch on a boolean value.
     If(ValId, Vec<LStmt>, Vec<LStmt>),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{mul_hi, mul_hi_range};
+
+    /// Edge factors: 0, ±1, each half's and each byte's boundaries, the extremes.
+    const EDGE: [i128; 22] = [
+        0,
+        1,
+        -1,
+        255,
+        256,
+        -256,
+        0x7fff,
+        -0x8000,
+        0xffff,
+        0x10000,
+        -0x10000,
+        -0xffff,
+        0x1_0001,
+        -0x1_0001,
+        0x00ff_00ff,
+        -0x00ff_00ff,
+        0x7fff_0000,
+        -0x7fff_0000,
+        0x7fff_fffe,
+        0x7fff_ffff,
+        -0x7fff_ffff,
+        -0x8000_0000,
+    ];
+
+    /// Every pair of edge factors, and 200,000 random pairs of random widths.
+    fn pairs() -> Vec<(i128, i128)> {
+        let mut out: Vec<(i128, i128)> = EDGE
+            .iter()
+            .flat_map(|&a| EDGE.iter().map(move |&b| (a, b)))
+            .collect();
+        let mut s = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            s
+        };
+        for _ in 0..200_000 {
+            let w = rnd();
+            let a = i128::from((rnd() as u32 as i32) >> (w & 31));
+            let b = i128::from((rnd() as u32 as i32) >> ((w >> 5) & 31));
+            out.push((a, b));
+        }
+        out
+    }
+
+    /// `mul_hi(a, b)` is an integer in `(a·b/2^32 − 3, a·b/2^32]`, exactly (integers: `2^32·m ≤
+    /// a·b < 2^32·(m + 3)`), and every piece and partial sum fits `i32`, as the emitters
+    /// compute it in 32 bits.
+    #[test]
+    fn the_high_product_is_within_three_below_the_products_high_word() {
+        for (a, b) in pairs() {
+            let m = mul_hi(a, b);
+            let p = a * b;
+            assert!(m << 32 <= p && p < (m + 3) << 32, "{a} * {b}: {m}");
+            let (ha, hb, la, lb) = (a >> 16, b >> 16, a & 0xffff, b & 0xffff);
+            let i32r = i128::from(i32::MIN)..=i128::from(i32::MAX);
+            for x in [ha * hb, ha * lb, la * hb, ha * hb + ((ha * lb) >> 16), m] {
+                assert!(i32r.contains(&x), "{a} * {b}: a piece {x} leaves i32");
+            }
+        }
+    }
+
+    /// The interval holds every value over boxes of random factors, at the corners and inside.
+    #[test]
+    fn the_high_products_interval_holds_its_values() {
+        let ps = pairs();
+        for w in ps.windows(2).step_by(97) {
+            let (a0, a1) = (w[0].0.min(w[1].0), w[0].0.max(w[1].0));
+            let (b0, b1) = (w[0].1.min(w[1].1), w[0].1.max(w[1].1));
+            let (lo, hi) = mul_hi_range((a0, a1), (b0, b1));
+            for a in [a0, a1, (a0 + a1) >> 1] {
+                for b in [b0, b1, (b0 + b1) >> 1] {
+                    let m = mul_hi(a, b);
+                    assert!(lo <= m && m <= hi, "[{a0}, {a1}] x [{b0}, {b1}]: {m}");
+                }
+            }
+        }
+    }
 }

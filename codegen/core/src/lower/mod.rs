@@ -475,6 +475,7 @@ fn cse_key(v: &NewVal) -> Option<String> {
         | Op::Shl(..)
         | Op::Shr(..)
         | Op::Mul(..)
+        | Op::MulHi(..)
         | Op::Min(..)
         | Op::Max(..) => Some(format!(
             "{:?} {} {} {} {} {}",

@@ -190,6 +190,12 @@ fn local_rounding(vals: &[Val], target: ValId, leaves: &[&str]) -> Option<f64> {
                     let (ea, eb) = (walk(vals, a, leaves, memo)?, walk(vals, b, leaves, memo)?);
                     Some(add(add(mul(mag(a), eb), mul(mag(b), ea)), mul(ea, eb)))
                 }
+                // The exact product's, plus the high product's truncation: below 3 LSBs.
+                Op::MulHi(a, b) => {
+                    let (ea, eb) = (walk(vals, a, leaves, memo)?, walk(vals, b, leaves, memo)?);
+                    let exact = add(add(mul(mag(a), eb), mul(mag(b), ea)), mul(ea, eb));
+                    Some(add(exact, 3.0 * 2f64.powi(-v.frac)))
+                }
                 // |min(a', b') − min(a, b)| ≤ max(|a' − a|, |b' − b|); the clamp's bounds are
                 // taken as exact, see the module docs.
                 Op::Min(a, b) | Op::Max(a, b) => {

@@ -65,6 +65,12 @@ impl Lowerer<'_> {
         if let Some(r) = self.round_then_clamp(v, n, span, out)? {
             return Ok(r);
         }
+        if let Some(r) = self.high_product(v, n, span, out)? {
+            return Ok(r);
+        }
+        if let Some(r) = self.high_sum(v, n, span, out)? {
+            return Ok(r);
+        }
         let x = self.v(v).clone();
         let (lo, hi) = self.rounded(x.lo, x.hi, n);
         let frac = x.frac - n as i32;
@@ -259,7 +265,7 @@ impl Lowerer<'_> {
         let narrower = IntTy::signed_for(rl, rh, self.target.min_work_bits())
             .is_some_and(|t| t.bits < x.ty.bits);
         if !narrower {
-            return Ok(None);
+            return self.high_clamp(x.err, cur, n, (lo, hi), span, out);
         }
         let bound = |c: Option<i128>, none: i128| c.map_or(none, |c| self.rounded(c, c, n).0);
         let (bl, bh) = (bound(lo, i128::MIN), bound(hi, i128::MAX));
@@ -273,7 +279,16 @@ impl Lowerer<'_> {
         let mut r = self.clamp(r, bl, bh, out)?;
         // The error bound is the clamp's own, rounded: `x`'s bound can hold more than its
         // operand's (a table look-up's interpolation error is set on its final clamp).
-        let err = err_bound::add(x.err, self.rounding_added(x.frac, n)).max(self.v(r).err);
+        let err = if self.target.multiplier.high_product {
+            // The inner rounding may be a high product's or a sum's term by term: what it
+            // added to the operand's bound (with a margin for the subtraction's rounding), on
+            // the larger of the clamp's own bound and the operand's.
+            let rv = self.v(r).err;
+            let extra = err_bound::add(rv - inner.err, rv * 1e-15).max(0.0);
+            err_bound::add(x.err.max(inner.err), extra)
+        } else {
+            err_bound::add(x.err, self.rounding_added(x.frac, n)).max(self.v(r).err)
+        };
         if self.v(r).err != err {
             if r.0 < first_new {
                 // A value the statement computed before: a copy of it carries the bound.
@@ -285,16 +300,397 @@ impl Lowerer<'_> {
         let (want_lo, want_hi) = self.rounded(x.lo, x.hi, n);
         let got = self.v(r);
         debug_assert!(
-            got.lo == want_lo && got.hi == want_hi,
+            self.target.multiplier.high_product || (got.lo == want_lo && got.hi == want_hi),
             "round then clamp: [{}, {}] against [{want_lo}, {want_hi}]",
             got.lo,
             got.hi
         );
-        if got.lo != want_lo || got.hi != want_hi {
+        // With high products the inner rounding is not a function of `x` alone, and the
+        // interval is the one derived for the operations as computed (sound either way).
+        if !self.target.multiplier.high_product && (got.lo != want_lo || got.hi != want_hi) {
             // Not expected (the identity holds for intervals too); keep the plain form.
             return Ok(None);
         }
         Ok(Some(r))
+    }
+
+    /// A 64-bit product of two values of at most 32 bits, rounded by `n`, as the high word of
+    /// their product ([`Op::MulHi`]: three 16×16→32-bit pieces, within 3 LSBs below
+    /// `a·b/2^32`), then shifted to the result's format in 32 bits: right by `n − 32` with the
+    /// program's rounding, or left by `32 − n` (exact). Only on a target that asks for it
+    /// ([`crate::lower::target::Multiplier::high_product`]), and only where the result fits
+    /// `i32` and the truncation (3 LSBs of the high word, `3·2^(32 − n)` of the result's) is
+    /// at most 2^-16 of the result's magnitude: a value of 32 bits keeps 16 bits of accuracy
+    /// or more, which is what the word is for on the AVR. The error bound adds the
+    /// truncation. `None` where the pattern or the conditions are absent.
+    fn high_product(
+        &mut self,
+        v: ValId,
+        n: u32,
+        span: Span,
+        out: &mut Vec<LStmt>,
+    ) -> Result<Option<ValId>> {
+        if !self.target.multiplier.high_product {
+            return Ok(None);
+        }
+        let x = self.v(v).clone();
+        if x.name.is_some() || x.claimed || x.boolean || x.ty.bits != 64 || !(16..64).contains(&n) {
+            return Ok(None);
+        }
+        // A product shifted left by k is the product with k more fraction bits.
+        if let Op::Shl(s, k) = x.op {
+            // Only a change of binary point (the same physical value), not a product by 2^k.
+            let rescale = self.v(s).frac + k as i32 == x.frac;
+            if k < n && rescale && !x.network && matches!(self.v(s).op, Op::Mul(..)) {
+                return self.high_product(s, n - k, span, out);
+            }
+            return Ok(None);
+        }
+        let Op::Mul(a, b) = x.op else {
+            return Ok(None);
+        };
+        // Each factor: a value of at most 32 bits, not a constant (a constant factor is the
+        // shift-add network's or the multiplier's).
+        let is_const = |me: &Self, id: ValId| matches!(me.v(id).op, Op::Const(_));
+        if is_const(self, a) || is_const(self, b) {
+            return Ok(None);
+        }
+        let (Some(a), Some(b)) = (self.narrow32(a, 4, out), self.narrow32(b, 4, out)) else {
+            return Ok(None);
+        };
+        let i32t = IntTy::signed(32);
+        let (va, vb) = (self.v(a).clone(), self.v(b).clone());
+        let (lo, hi) = super::lir::mul_hi_range((va.lo, va.hi), (vb.lo, vb.hi));
+        let frac = x.frac - 32;
+        let trunc = 3.0 * pow2(-frac);
+        let up = 32u32.saturating_sub(n);
+        let (rl, rh) = (lo << up, hi << up);
+        let magnitude = err_bound::magnitude(rl.abs().max(rh.abs()), x.frac - n as i32);
+        let fits = rl >= i128::from(i32::MIN) && rh <= i128::from(i32::MAX);
+        if !fits || trunc > magnitude * pow2(-16) {
+            return Ok(None);
+        }
+        let ca = self.cast(a, i32t, out);
+        let cb = self.cast(b, i32t, out);
+        let m = self.push(
+            NewVal {
+                op: Op::MulHi(ca, cb),
+                ty: i32t,
+                frac,
+                lo,
+                hi,
+                err: err_bound::add(x.err, trunc),
+            },
+            out,
+        );
+        let r = if n >= 32 {
+            self.round(m, n - 32, span, out)?
+        } else {
+            self.shl(m, up, span, out)?
+        };
+        Ok(Some(r))
+    }
+
+    /// `id` as a value of at most 32 bits, where its interval fits `i32`: itself, the source of
+    /// its widening casts, or (to `depth` levels) its sum, difference, negation or exact left
+    /// shift recomputed in `i32` from operands that are such values. The same integer: each
+    /// operation is exact, and every interval is inside `i32`. `None` otherwise.
+    fn narrow32(&mut self, id: ValId, depth: u32, out: &mut Vec<LStmt>) -> Option<ValId> {
+        let w = self.v(id).clone();
+        let fits = |lo: i128, hi: i128| lo >= i128::from(i32::MIN) && hi <= i128::from(i32::MAX);
+        if w.boolean || !fits(w.lo, w.hi) {
+            return None;
+        }
+        if w.ty.bits <= 32 {
+            return Some(id);
+        }
+        if depth == 0 || w.claimed || w.network {
+            return None;
+        }
+        let i32t = IntTy::signed(32);
+        let op = match w.op {
+            Op::Cast(s) if self.v(s).frac == w.frac => return self.narrow32(s, depth, out),
+            Op::Const(c) => Op::Const(c),
+            Op::Add(a, b) => Op::Add(
+                self.narrow32(a, depth - 1, out)?,
+                self.narrow32(b, depth - 1, out)?,
+            ),
+            Op::Sub(a, b) => Op::Sub(
+                self.narrow32(a, depth - 1, out)?,
+                self.narrow32(b, depth - 1, out)?,
+            ),
+            Op::Neg(a) => Op::Neg(self.narrow32(a, depth - 1, out)?),
+            Op::Shl(a, k) => Op::Shl(self.narrow32(a, depth - 1, out)?, k),
+            _ => return None,
+        };
+        let ops: Vec<ValId> = op.operands();
+        let mut cast_ops = Vec::with_capacity(ops.len());
+        for o in ops {
+            cast_ops.push(self.cast(o, i32t, out));
+        }
+        let op = match op {
+            Op::Add(..) => Op::Add(cast_ops[0], cast_ops[1]),
+            Op::Sub(..) => Op::Sub(cast_ops[0], cast_ops[1]),
+            Op::Neg(_) => Op::Neg(cast_ops[0]),
+            Op::Shl(_, k) => Op::Shl(cast_ops[0], k),
+            other => other,
+        };
+        Some(self.push(
+            NewVal {
+                op,
+                ty: i32t,
+                frac: w.frac,
+                lo: w.lo,
+                hi: w.hi,
+                err: w.err,
+            },
+            out,
+        ))
+    }
+
+    /// A 64-bit sum of products, constants and (shifted) values of at most 32 bits, rounded by
+    /// `n`, as the sum of its terms each rounded on its own and added in 32 bits: each
+    /// product by [`Self::high_product`], each other term by the program's rounding (or an
+    /// exact shift), a constant at compile time. Where the target asks for high products, the
+    /// whole sum fits `i32`, and the terms' roundings together stay within 2^-16 of the
+    /// result's magnitude (the accuracy [`Self::high_product`] keeps). The error bound is the
+    /// sum of the terms'. `None` otherwise; the values tried are then dead, and
+    /// [`super::dce`] drops them.
+    fn high_sum(
+        &mut self,
+        v: ValId,
+        n: u32,
+        span: Span,
+        out: &mut Vec<LStmt>,
+    ) -> Result<Option<ValId>> {
+        if !self.target.multiplier.high_product {
+            return Ok(None);
+        }
+        let x = self.v(v).clone();
+        if x.name.is_some()
+            || x.claimed
+            || x.boolean
+            || x.ty.bits != 64
+            || !matches!(x.op, Op::Add(..) | Op::Sub(..))
+        {
+            return Ok(None);
+        }
+        // The terms, with their signs (true: subtracted).
+        fn terms(me: &Lowerer<'_>, id: ValId, neg: bool, acc: &mut Vec<(bool, ValId)>) {
+            let w = me.v(id);
+            let inner = w.name.is_none() && !w.claimed && !w.network && w.ty.bits == 64;
+            match w.op {
+                Op::Add(a, b) if inner => {
+                    terms(me, a, neg, acc);
+                    terms(me, b, neg, acc);
+                }
+                Op::Sub(a, b) if inner => {
+                    terms(me, a, neg, acc);
+                    terms(me, b, !neg, acc);
+                }
+                Op::Neg(a) if inner => terms(me, a, !neg, acc),
+                Op::Cast(a) if inner && me.v(a).frac == w.frac && me.v(a).ty.bits == 64 => {
+                    terms(me, a, neg, acc)
+                }
+                _ => acc.push((neg, id)),
+            }
+        }
+        let mut ts = Vec::new();
+        terms(self, v, false, &mut ts);
+        let product = |me: &Self, t: ValId| match me.v(t).op {
+            Op::Mul(..) => true,
+            Op::Shl(s, k) => {
+                matches!(me.v(s).op, Op::Mul(..)) && me.v(s).frac + k as i32 == me.v(t).frac
+            }
+            _ => false,
+        };
+        let products = ts.iter().any(|&(_, t)| product(self, t));
+        if products && !(16..64).contains(&n) {
+            return Ok(None);
+        }
+        // With products, the terms are added at the high products' binary point, then
+        // shifted left exactly to the result's (a product rounded by less than 32 bits).
+        let m = if products { n.max(32) } else { n };
+        // A term of at most 32 bits under widening casts and exact left shifts.
+        let narrow = |me: &mut Self, mut id: ValId, out: &mut Vec<LStmt>| {
+            while me.v(id).ty.bits > 32 {
+                match me.v(id).op {
+                    Op::Cast(s) if me.v(s).frac == me.v(id).frac => id = s,
+                    Op::Shl(s, k)
+                        if !me.v(id).network && me.v(s).frac + k as i32 == me.v(id).frac =>
+                    {
+                        id = s
+                    }
+                    _ => return me.narrow32(id, 4, out),
+                }
+            }
+            let w = me.v(id);
+            (w.lo >= i128::from(i32::MIN) && w.hi <= i128::from(i32::MAX) && !w.boolean)
+                .then_some(id)
+        };
+        let frac = x.frac - m as i32;
+        let fits = |w: &super::lir::Val| {
+            w.ty.bits <= 32 && w.lo >= i128::from(i32::MIN) && w.hi <= i128::from(i32::MAX)
+        };
+        let i32t = IntTy::signed(32);
+        let fits_i32 =
+            |lo: i128, hi: i128| lo >= i128::from(i32::MIN) && hi <= i128::from(i32::MAX);
+        let mut rounded = Vec::with_capacity(ts.len());
+        for &(neg, t) in &ts {
+            let r = match self.v(t).op {
+                _ if product(self, t) => match self.high_product(t, m, span, out)? {
+                    Some(r) => r,
+                    None => return Ok(None),
+                },
+                Op::Const(_) => self.round(t, m, span, out)?,
+                // A shifted term of a constant's shift-add network, `x·2^k` with the binary
+                // point unchanged: `x` re-expressed with `frac + k` fraction bits has the raw
+                // value of `x·2^k` with `frac` (a cast that moves the binary point), kept
+                // opaque as the network's own terms are, so that no compiler folds the sum back
+                // into a multiply.
+                Op::Shl(s, k) if self.v(t).network && self.v(s).frac == self.v(t).frac => {
+                    let Some(y) = narrow(self, s, out) else {
+                        return Ok(None);
+                    };
+                    let y = self.rescale(y, frac + k as i32, span, out)?;
+                    let yv = self.v(y).clone();
+                    if !fits_i32(yv.lo, yv.hi) || yv.ty.bits > 32 {
+                        return Ok(None);
+                    }
+                    let r = self.push(
+                        NewVal {
+                            op: Op::Cast(y),
+                            ty: i32t,
+                            frac,
+                            lo: yv.lo,
+                            hi: yv.hi,
+                            err: yv.err * pow2(k as i32),
+                        },
+                        out,
+                    );
+                    self.vals[r.0].network = true;
+                    r
+                }
+                _ => match narrow(self, t, out) {
+                    Some(y) => self.rescale(y, frac, span, out)?,
+                    None => return Ok(None),
+                },
+            };
+            if !fits(self.v(r)) || self.v(r).frac != frac {
+                return Ok(None);
+            }
+            rounded.push((neg, r));
+        }
+        // A subtracted term first would need a negation: start from an added one.
+        if let Some(i) = rounded.iter().position(|&(neg, _)| !neg) {
+            rounded.swap(0, i);
+        }
+        let (neg0, first) = rounded[0];
+        let mut acc = self.cast(first, i32t, out);
+        if neg0 {
+            let a = self.v(acc).clone();
+            if -a.hi < i128::from(i32::MIN) || -a.lo > i128::from(i32::MAX) {
+                return Ok(None);
+            }
+            acc = self.push(
+                NewVal {
+                    op: Op::Neg(acc),
+                    ty: i32t,
+                    frac,
+                    lo: -a.hi,
+                    hi: -a.lo,
+                    err: a.err,
+                },
+                out,
+            );
+        }
+        for &(neg, r) in &rounded[1..] {
+            let r = self.cast(r, i32t, out);
+            let (a, b) = (self.v(acc).clone(), self.v(r).clone());
+            let (op, lo, hi) = if neg {
+                (Op::Sub(acc, r), a.lo - b.hi, a.hi - b.lo)
+            } else {
+                (Op::Add(acc, r), a.lo + b.lo, a.hi + b.hi)
+            };
+            if lo < i128::from(i32::MIN) || hi > i128::from(i32::MAX) {
+                return Ok(None);
+            }
+            acc = self.push(
+                NewVal {
+                    op,
+                    ty: i32t,
+                    frac,
+                    lo,
+                    hi,
+                    err: err_bound::add(a.err, b.err),
+                },
+                out,
+            );
+        }
+        if m > n {
+            acc = self.shl(acc, m - n, span, out)?;
+            if !fits(self.v(acc)) {
+                return Ok(None);
+            }
+        }
+        let got = self.v(acc).clone();
+        let magnitude = err_bound::magnitude(got.lo.abs().max(got.hi.abs()), got.frac);
+        let added = got.err - x.err;
+        if added > magnitude * pow2(-16) {
+            return Ok(None);
+        }
+        Ok(Some(acc))
+    }
+
+    /// `round(clamp(p, LO, HI), n)` for a product `p` rounded by `n < 32` bits whose rounded
+    /// value needs more than 32 bits while the clamp's bounds do not, on a target that asks for
+    /// high products: the high word of the product ([`Self::high_product`] by 32 bits), clamped
+    /// there to the bounds rounded by 32 bits, then shifted left by `32 − n` (exact). Within
+    /// the clamp's own error bound (`err`) plus the rounding of 32 bits, as clamping is
+    /// 1-Lipschitz. `None` where the result does not fit `i32`.
+    fn high_clamp(
+        &mut self,
+        err: f64,
+        p: ValId,
+        n: u32,
+        (lo, hi): (Option<i128>, Option<i128>),
+        span: Span,
+        out: &mut Vec<LStmt>,
+    ) -> Result<Option<ValId>> {
+        if !self.target.multiplier.high_product || n >= 32 {
+            return Ok(None);
+        }
+        let (pf, p_err) = (self.v(p).frac, self.v(p).err);
+        let Some(r) = self.high_product(p, 32, span, out)? else {
+            return Ok(None);
+        };
+        let bound = |c: Option<i128>, none: i128| c.map_or(none, |c| self.rounded(c, c, 32).0);
+        let (bl, bh) = (bound(lo, i128::MIN), bound(hi, i128::MAX));
+        let rv = self.v(r).clone();
+        if bl > bh || (lo.is_some() && bl > rv.hi) || (hi.is_some() && bh < rv.lo) {
+            return Ok(None);
+        }
+        let c = self.clamp(r, bl, bh, out)?;
+        let s = self.shl(c, 32 - n, span, out)?;
+        let sv = self.v(s).clone();
+        if sv.ty.bits > 32 {
+            return Ok(None);
+        }
+        // The clamp's own bound (which can hold more than the product's: a table's
+        // interpolation error sits on its clamp), the truncation (what the high product's
+        // bound adds to the product's, with a margin for the subtraction's rounding), and
+        // the bounds' rounding.
+        let trunc = err_bound::add(sv.err - p_err, sv.err * 1e-15);
+        let e = err_bound::add(
+            err_bound::add(err.max(p_err), trunc),
+            self.rounding_added(pf, 32),
+        );
+        let s = if sv.err == e { s } else { self.copy(s, e, out) };
+        let magnitude = err_bound::magnitude(sv.lo.abs().max(sv.hi.abs()), sv.frac);
+        if e - err > magnitude * pow2(-16) {
+            return Ok(None);
+        }
+        Ok(Some(s))
     }
 
     /// `v` re-expressed with `frac` fraction bits.

@@ -54,6 +54,13 @@ pub struct Multiplier {
     pub kind: MulKind,
     /// Cycles of one multiply instruction (0 if there is none).
     pub cycles: u32,
+    /// A product of two 32-bit values rounded to a 32-bit result drops its low×low piece:
+    /// it is [`crate::lower::lir::Op::MulHi`], three 16×16→32-bit products, within 3 LSBs of
+    /// the product's high word (then shifted to the result's format), instead of a 32×32→64
+    /// product and 64-bit rounding. For a target whose 64-bit arithmetic is library calls
+    /// (the AVR); off by default.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub high_product: bool,
 }
 
 /// Shape of a target's multiply instruction.
@@ -445,6 +452,7 @@ impl Default for Target {
             multiplier: Multiplier {
                 kind: MulKind::None,
                 cycles: 0,
+                high_product: false,
             },
             shifter: Shifter {
                 barrel: true,

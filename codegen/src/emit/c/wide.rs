@@ -154,6 +154,113 @@ pub(super) fn product_helper() -> String {
     )
 }
 
+/// The high-product helper ([`Op::MulHi`], `lower::lir::mul_hi`), prefixed `qloop_`.
+///
+/// On an AVR core with `MUL`: a `static noinline` function around one `asm` block, `a` in
+/// r22..r25, `b` in r18..r21, the result in r22..r25. Each of the three pieces is an unsigned
+/// 16×16 product of four `MUL`s into r26, r27, r30, r31, corrected for the signed halves
+/// modulo 2^32 (`h(a)·l(b) = h(a)ᵤ·l(b) − 2^16·l(b)` when `a < 0`; `h(a)·h(b) = h(a)ᵤ·h(b)ᵤ
+/// − 2^16·h(b) − 2^16·h(a)` for the negative ones), which is exact because each signed piece
+/// fits 32 bits. The sum accumulates in r12..r15, r16 is a zero; the block saves and restores
+/// them and leaves r1 zero. Twelve `MUL`s against the sixteen of the 64-bit product, and no
+/// 64-bit shift or add after it. Elsewhere, and for Frama-C, the plain C of the same formula.
+/// `tests/tests/c_output.rs` runs it in simavr against [`crate::lower::lir::mul_hi`].
+pub(super) fn high_product_helper() -> String {
+    let (a, b) = (["r22", "r23", "r24", "r25"], ["r18", "r19", "r20", "r21"]);
+    let zero = "r16";
+    let mut asm: Vec<String> = Vec::new();
+    let saved = ["r12", "r13", "r14", "r15", "r16"];
+    asm.extend(saved.iter().map(|r| format!("push {r}")));
+    asm.push(format!("clr {zero}"));
+    // x1:x0 times y1:y0, unsigned, into r31:r30:r27:r26.
+    let mul16 = |asm: &mut Vec<String>, x: [&str; 2], y: [&str; 2]| {
+        asm.push(format!("mul {},{}", x[0], y[0]));
+        asm.push("movw r26,r0".to_string());
+        asm.push(format!("mul {},{}", x[1], y[1]));
+        asm.push("movw r30,r0".to_string());
+        for (p, q) in [(x[0], y[1]), (x[1], y[0])] {
+            asm.push(format!("mul {p},{q}"));
+            asm.push("add r27,r0".to_string());
+            asm.push("adc r30,r1".to_string());
+            asm.push(format!("adc r31,{zero}"));
+        }
+    };
+    // minus 2^16 * (y1:y0) when x is negative.
+    let fix = |asm: &mut Vec<String>, sign: &str, y: [&str; 2]| {
+        asm.push(format!("sbrs {sign},7"));
+        asm.push("rjmp 1f".to_string());
+        asm.push(format!("sub r30,{}", y[0]));
+        asm.push(format!("sbc r31,{}", y[1]));
+        asm.push("1:".to_string());
+    };
+    asm.push("/* h(a) * l(b) >> 16, sign-extended into r12..r15 */".to_string());
+    mul16(&mut asm, [a[2], a[3]], [b[0], b[1]]);
+    fix(&mut asm, a[3], [b[0], b[1]]);
+    asm.push("movw r12,r30".to_string());
+    asm.push("clr r14".to_string());
+    asm.push("sbrc r13,7".to_string());
+    asm.push("com r14".to_string());
+    asm.push("mov r15,r14".to_string());
+    asm.push("/* + l(a) * h(b) >> 16 */".to_string());
+    mul16(&mut asm, [a[0], a[1]], [b[2], b[3]]);
+    fix(&mut asm, b[3], [a[0], a[1]]);
+    asm.push("clr r26".to_string());
+    asm.push("sbrc r31,7".to_string());
+    asm.push("com r26".to_string());
+    asm.push("add r12,r30".to_string());
+    asm.push("adc r13,r31".to_string());
+    asm.push("adc r14,r26".to_string());
+    asm.push("adc r15,r26".to_string());
+    asm.push("/* + h(a) * h(b) */".to_string());
+    mul16(&mut asm, [a[2], a[3]], [b[2], b[3]]);
+    fix(&mut asm, a[3], [b[2], b[3]]);
+    fix(&mut asm, b[3], [a[2], a[3]]);
+    asm.push("add r12,r26".to_string());
+    asm.push("adc r13,r27".to_string());
+    asm.push("adc r14,r30".to_string());
+    asm.push("adc r15,r31".to_string());
+    asm.push("clr r1".to_string());
+    asm.push("movw r22,r12".to_string());
+    asm.push("movw r24,r14".to_string());
+    asm.extend(saved.iter().rev().map(|r| format!("pop {r}")));
+    let mut body = String::new();
+    for l in &asm {
+        if l.starts_with("/*") {
+            let _ = writeln!(body, "        {l}");
+        } else {
+            let _ = writeln!(body, "        \"{l}\\n\"");
+        }
+    }
+    format!(
+        "/* The high word of a * b from three 16 x 16 -> 32-bit pieces, h(x) = x >> 16 and\n\
+         \x20* l(x) = x & 0xFFFF: h(a)h(b) + (h(a)l(b) >> 16) + (l(a)h(b) >> 16), within 3 below\n\
+         \x20* a * b / 2^32 (qloop's plan, lower::lir::mul_hi); every piece fits int32_t. On an\n\
+         \x20* AVR core with MUL: twelve byte products, each piece corrected for the signs of the\n\
+         \x20* halves. Elsewhere, and for Frama-C, the plain formula. */\n\
+         #if defined(__GNUC__) && defined(__AVR__) && defined(__AVR_HAVE_MUL__) && !defined(__FRAMAC__)\n\
+         static __attribute__((noinline)) int32_t qloop_mulhi(int32_t a, int32_t b)\n\
+         {{\n\
+         \x20   register int32_t ra __asm__(\"r22\") = a;\n\
+         \x20   register int32_t rb __asm__(\"r18\") = b;\n\
+         \x20   __asm__(\n\
+         {body}\x20       : \"+r\"(ra) : \"r\"(rb) : \"r26\", \"r27\", \"r30\", \"r31\");\n\
+         \x20   return ra;\n\
+         }}\n\
+         #else\n\
+         static int32_t qloop_mulhi(int32_t a, int32_t b)\n\
+         {{\n\
+         \x20   const int32_t ha = a >> 16, hb = b >> 16;\n\
+         \x20   return ha * hb + ((ha * (b & 0xFFFF)) >> 16) + (((a & 0xFFFF) * hb) >> 16);\n\
+         }}\n\
+         #endif\n\n"
+    )
+}
+
+/// Whether the step has an [`Op::MulHi`].
+pub(super) fn high_products(plan: &Plan) -> bool {
+    plan.vals.iter().any(|v| matches!(v.op, Op::MulHi(..)))
+}
+
 /// The `qloop_NAME_mul64` call that value `id` is, if it is a 64-bit product of two values
 /// proved to fit 32 bits, on a target whose 64-bit arithmetic is library calls.
 pub(super) fn product(plan: &Plan, id: ValId) -> Option<String> {

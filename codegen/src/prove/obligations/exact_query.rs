@@ -78,8 +78,8 @@ impl Cuts {
         match self {
             Cuts::None => false,
             Cuts::Lets => v.name.is_some() && !matches!(v.op, Op::Input(_)),
-            Cuts::Products => matches!(v.op, Op::Mul(..)),
-            Cuts::Tests => matches!(v.op, Op::Mul(..)) || v.boolean,
+            Cuts::Products => matches!(v.op, Op::Mul(..) | Op::MulHi(..)),
+            Cuts::Tests => matches!(v.op, Op::Mul(..) | Op::MulHi(..)) || v.boolean,
             Cuts::NonLinear => !matches!(
                 v.op,
                 Op::Add(..) | Op::Sub(..) | Op::Neg(_) | Op::Shl(..) | Op::Shr(..) | Op::Cast(_)

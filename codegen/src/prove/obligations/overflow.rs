@@ -121,7 +121,11 @@ fn product_envelope_query(plan: &Plan, id: ValId) -> Option<Query> {
     use crate::prove::exact::{Emitter, Products, Sort, T};
     use std::rc::Rc;
     let v = plan.val(id);
-    let Op::Mul(a, b) = v.op else { return None };
+    let (a, b, high) = match v.op {
+        Op::Mul(a, b) => (a, b, false),
+        Op::MulHi(a, b) => (a, b, true),
+        _ => return None,
+    };
     let mut em = Emitter::new(Sort::Int, Products::Relaxed);
     let var = |j: ValId| {
         let o = plan.val(j);
@@ -140,7 +144,14 @@ fn product_envelope_query(plan: &Plan, id: ValId) -> Option<Query> {
             premises.push(em.in_range(f, *lo, *hi));
         }
     }
-    let goal = em.in_range(&Rc::new(T::Mul(x, y)), v.lo, v.hi);
+    let goal = if high {
+        // `mul_hi(a, b)` lies in `[F − 2, F]` with `F = floor(a·b / 2^32)`
+        // (`qloop_core::lower::lir::mul_hi`), so `F` in `[lo + 2, hi]` suffices.
+        let f = Rc::new(T::Shr(Rc::new(T::Mul(x, y)), 32));
+        em.in_range(&f, v.lo + 2, v.hi)
+    } else {
+        em.in_range(&Rc::new(T::Mul(x, y)), v.lo, v.hi)
+    };
     if em.overflowed() {
         return None;
     }
@@ -169,6 +180,7 @@ fn interval_closed(plan: &Plan, id: ValId) -> bool {
             let c = [al * bl, al * bh, ah * bl, ah * bh];
             (*c.iter().min().unwrap_or(&0), *c.iter().max().unwrap_or(&0))
         }
+        Op::MulHi(a, b) => qloop_core::lower::lir::mul_hi_range(r(a), r(b)),
         Op::Shl(a, k) => (r(a).0 << k, r(a).1 << k),
         Op::Shr(a, k) => (r(a).0 >> k, r(a).1 >> k),
         Op::Cast(a) => r(a),
@@ -195,6 +207,7 @@ fn op_name(op: &Op) -> &'static str {
         Op::Shl(..) => "shl",
         Op::Shr(..) => "shr",
         Op::Mul(..) => "mul",
+        Op::MulHi(..) => "high product",
         Op::Min(..) => "min",
         Op::Max(..) => "max",
         Op::Select(..) => "select",
