@@ -100,6 +100,27 @@ fn lin(t: &Rc<T>) -> Lin {
     (m, 0)
 }
 
+/// `s` where the sum `Σ kᵢ·aᵢ + c` is `x − 2^s·⌊x/2^s⌋` exactly, for some term `x`: one
+/// atom is `⌊x/2^s⌋` with coefficient `−2^s`, and the rest is `x`'s linear form.
+fn low_bits(terms: &[(i128, Rc<T>)], c: i128) -> Option<u32> {
+    terms.iter().enumerate().find_map(|(i, (k, a))| {
+        let T::Shr(x, s) = &**a else { return None };
+        if *s == 0 || *s >= 100 || *k != -(1i128 << s) {
+            return None;
+        }
+        let (mx, cx) = lin(x);
+        let mut rest: BTreeMap<Rc<T>, i128> = BTreeMap::new();
+        for (j, (kj, aj)) in terms.iter().enumerate() {
+            if j != i {
+                *rest.entry(aj.clone()).or_insert(0) += kj;
+            }
+        }
+        rest.retain(|_, v| *v != 0);
+        let mx: BTreeMap<Rc<T>, i128> = mx.into_iter().filter(|(_, v)| *v != 0).collect();
+        (rest == mx && cx == c).then_some(*s)
+    })
+}
+
 /// The term of a linear combination.
 fn from_lin((m, c): Lin) -> Rc<T> {
     let terms: Vec<(i128, Rc<T>)> = m
@@ -924,6 +945,13 @@ impl Ranges {
                 let (x, y) = (self.of(a), self.of(b));
                 (x.0.min(y.0), x.1.max(y.1))
             }
+            T::Sum(terms, c) if low_bits(terms, *c).is_some() => {
+                // `x − 2^s·⌊x/2^s⌋`, the low `s` bits of `x` (a table position, a high
+                // product's low half): in `[0, 2^s)` whatever `x`, where its parts' intervals
+                // would give twice `x`'s range.
+                let s = low_bits(terms, *c).unwrap_or(0);
+                (0, (1i128 << s) - 1)
+            }
             T::Sum(terms, c) => {
                 let (mut lo, mut hi) = (*c, *c);
                 for (k, a) in terms {
@@ -1130,6 +1158,21 @@ mod tests {
     }
     fn lt(a: Rc<T>, k: i128) -> Rc<B> {
         Rc::new(B::Cmp(CmpOp::Lt, a, Rc::new(T::Const(k))))
+    }
+
+    /// The low bits of a sum, `x − 2^s·⌊x/2^s⌋`, have the interval `[0, 2^s)`, for a
+    /// variable and for a sum of terms alike; a sum that is not of that form keeps its parts'.
+    #[test]
+    fn the_low_bits_of_a_term_are_in_their_range() {
+        let wide = |n: &str| Rc::new(T::Var(n.into(), 40, true, -(1i128 << 38), 1i128 << 38));
+        let x = add(mul(wide("a"), Rc::new(T::Const(3))), wide("b"));
+        for t in [wide("c"), x] {
+            let low = sub(t.clone(), shl(Rc::new(T::Shr(t.clone(), 16)), 16));
+            assert_eq!(Ranges::default().of(&low), (0, 65535), "{low:?}");
+            // One unit more of x is not the low bits: its parts' interval.
+            let other = add(low, t.clone());
+            assert!(Ranges::default().of(&other).1 > 1i128 << 38);
+        }
     }
 
     /// `if outer { if inner { s = clamp(v) } }`: the two guards, not the clamp's test.
