@@ -287,21 +287,22 @@ fn avr_c_in_simavr_matches_the_interpreter() {
 
 /// The AVR product helper `qloop_NAME_mul64` (`codegen/src/emit/c/wide.rs`: sixteen byte
 /// products summed by column, then the sign correction), as the AVR C of GAC has it, equals
-/// avr-gcc's own `int64_t` product in simavr: every pair of 27 edge factors (0, ±1, the
-/// extremes, each byte's and half's boundary), then 6,000 random pairs of random widths and
-/// their squares (the helper's operands may share registers).
-#[test]
-fn avr_product_helper_equals_the_compilers_product_in_simavr() {
-    let Some(sim) = avr::Simavr::find() else {
-        return;
-    };
+/// Runs, in simavr, a check of one AVR `asm` helper of GAC's ATmega328P C against a reference
+/// computed by avr-gcc in `int64_t`: every pair of 27 edge factors (0, ±1, the extremes, each
+/// byte's and half's boundary), then 6,000 random pairs of random widths and their squares
+/// (the helper's operands may share registers). `helper` is the helper's name after
+/// `qloop_NAME_`; `reference` is C code defining `static int64_t reference(int32_t a, int32_t
+/// b)`. Asserts that every pair was checked and returns `(pairs that differ, the first such pair)`;
+/// `None` where simavr is missing.
+fn avr_helper_against_its_reference(helper: &str, reference: &str) -> Option<(i64, i64, i64)> {
+    let sim = avr::Simavr::find()?;
     let plan = plan_for("gac_surface_finish", "atmega328p");
     let n = &plan.prog.name;
     assert!(
         qloop::gen_c(&plan)
             .1
-            .contains(&format!("qloop_{n}_mul64((int32_t)")),
-        "{n}: the AVR C has no product helper call"
+            .contains(&format!("qloop_{n}_{helper}(")),
+        "{n}: the AVR C has no call of its {helper} helper"
     );
     let main = format!(
         "#include \"{n}.c\"\n#include \"sim_protocol.h\"\n\n\
@@ -312,10 +313,11 @@ fn avr_product_helper_equals_the_compilers_product_in_simavr() {
          static uint32_t rnd(void) {{ s ^= s << 13; s ^= s >> 17; s ^= s << 5; return s; }}\n\
          static uint32_t n, bad;\n\
          static int32_t bad_a, bad_b;\n\
+         {reference}\n\
          static void check(int32_t a, int32_t b)\n\
          {{\n\
          \x20   n++;\n\
-         \x20   if (qloop_{n}_mul64(a, b) != (int64_t)a * b) {{\n\
+         \x20   if ((int64_t)qloop_{n}_{helper}(a, b) != reference(a, b)) {{\n\
          \x20       if (!bad++) {{ bad_a = a; bad_b = b; }}\n\
          \x20   }}\n\
          }}\n\
@@ -347,7 +349,7 @@ fn avr_product_helper_equals_the_compilers_product_in_simavr() {
          \x20       __asm__ __volatile__(\"cli\\n\\tsleep\" ::: \"memory\");\n\
          }}\n"
     );
-    let out = avr::run_program(&sim, &plan, &main, &scratch("c-avr-mul64"));
+    let out = avr::run_program(&sim, &plan, &main, &scratch(&format!("c-avr-{helper}")));
     let got: Vec<i64> = out
         .lines()
         .find_map(|l| l.strip_prefix("out 0 "))
@@ -356,91 +358,42 @@ fn avr_product_helper_equals_the_compilers_product_in_simavr() {
         .map(|x| x.parse().unwrap())
         .collect();
     assert_eq!(got[0], 27 * 27 + 12_000, "pairs checked");
+    Some((got[1], got[2], got[3]))
+}
+
+/// The AVR product helper `qloop_NAME_mul64` (`codegen/src/emit/c/wide.rs`), as the AVR C of
+/// GAC has it, equals avr-gcc's own `int64_t` product in simavr on every pair
+/// [`avr_helper_against_its_reference`] tries.
+#[test]
+fn avr_product_helper_equals_the_compilers_product_in_simavr() {
+    let reference = "static int64_t reference(int32_t a, int32_t b) { return (int64_t)a * b; }";
+    let Some((bad, a, b)) = avr_helper_against_its_reference("mul64", reference) else {
+        return;
+    };
     assert_eq!(
-        got[1], 0,
-        "products that differ from avr-gcc's (the first: {} * {})",
-        got[2], got[3]
+        bad, 0,
+        "products that differ from avr-gcc's (the first: {a} * {b})"
     );
 }
 
 /// The AVR high-product helper `qloop_NAME_mulhi` (`codegen/src/emit/c/wide.rs`: three
 /// 16 x 16 products of four byte products each, corrected for the halves' signs), as the AVR C
 /// of GAC has it, equals the formula of `lower::lir::mul_hi` computed by avr-gcc in `int64_t`
-/// in simavr: every pair of 27 edge factors, then 6,000 random pairs of random widths and
-/// their squares. (`lower::lir`'s unit tests bound the formula against the exact product.)
+/// in simavr on every pair [`avr_helper_against_its_reference`] tries. (`lower::lir`'s unit
+/// tests bound the formula against the exact product.)
 #[test]
 fn avr_high_product_helper_equals_its_formula_in_simavr() {
-    let Some(sim) = avr::Simavr::find() else {
+    let reference = "static int64_t reference(int32_t a, int32_t b)\n\
+                     {\n\
+                     \x20   const int64_t ha = a >> 16, hb = b >> 16, la = a & 0xffff, lb = b & 0xffff;\n\
+                     \x20   return ha * hb + ((ha * lb) >> 16) + ((la * hb) >> 16);\n\
+                     }";
+    let Some((bad, a, b)) = avr_helper_against_its_reference("mulhi", reference) else {
         return;
     };
-    let plan = plan_for("gac_surface_finish", "atmega328p");
-    let n = &plan.prog.name;
-    assert!(
-        qloop::gen_c(&plan).1.contains(&format!("qloop_{n}_mulhi(")),
-        "{n}: the AVR C has no high-product helper call"
-    );
-    let main = format!(
-        "#include \"{n}.c\"\n#include \"sim_protocol.h\"\n\n\
-         static const int32_t edge[] = {{0, 1, -1, 2, -2, 127, -128, 128, -129, 255, -255, 256,\n\
-         \x20   -256, 0x7fff, -0x8000, 0x8000, -0x8001, 0xffff, -0xffff, 0x10000, -0x10000,\n\
-         \x20   0x00ff00ff, -0x00ff00ff, 0x7ffffffe, 0x7fffffff, -0x7fffffff, -0x7fffffff - 1}};\n\
-         static uint32_t s = 0x2545f491u;\n\
-         static uint32_t rnd(void) {{ s ^= s << 13; s ^= s >> 17; s ^= s << 5; return s; }}\n\
-         static uint32_t n, bad;\n\
-         static int32_t bad_a, bad_b;\n\
-         static int64_t formula(int32_t a, int32_t b)\n\
-         {{\n\
-         \x20   const int64_t ha = a >> 16, hb = b >> 16, la = a & 0xffff, lb = b & 0xffff;\n\
-         \x20   return ha * hb + ((ha * lb) >> 16) + ((la * hb) >> 16);\n\
-         }}\n\
-         static void check(int32_t a, int32_t b)\n\
-         {{\n\
-         \x20   n++;\n\
-         \x20   if ((int64_t)qloop_{n}_mulhi(a, b) != formula(a, b)) {{\n\
-         \x20       if (!bad++) {{ bad_a = a; bad_b = b; }}\n\
-         \x20   }}\n\
-         }}\n\
-         int main(void)\n\
-         {{\n\
-         \x20   uint16_t i, j;\n\
-         \x20   const uint16_t ne = sizeof edge / sizeof edge[0];\n\
-         \x20   __asm__ __volatile__(\"cli\" ::: \"memory\");\n\
-         \x20   for (i = 0; i < ne; i++)\n\
-         \x20       for (j = 0; j < ne; j++)\n\
-         \x20           check(edge[i], edge[j]);\n\
-         \x20   for (i = 0; i < 6000u; i++) {{\n\
-         \x20       const uint8_t w = (uint8_t)rnd();\n\
-         \x20       const int32_t a = (int32_t)rnd() >> (w & 31u), b = (int32_t)rnd() >> ((w >> 3) & 31u);\n\
-         \x20       check(a, b);\n\
-         \x20       check(a, a);\n\
-         \x20   }}\n\
-         \x20   MARK(MARK_CAL_BEGIN);\n\
-         \x20   MARK(MARK_CAL_END);\n\
-         \x20   MARK(MARK_STEP_BEGIN);\n\
-         \x20   MARK(MARK_STEP_END);\n\
-         \x20   emit((int32_t)n);\n\
-         \x20   emit((int32_t)bad);\n\
-         \x20   emit(bad_a);\n\
-         \x20   emit(bad_b);\n\
-         \x20   MARK(MARK_RECORD_END);\n\
-         \x20   MARK(MARK_DONE);\n\
-         \x20   for (;;)\n\
-         \x20       __asm__ __volatile__(\"cli\\n\\tsleep\" ::: \"memory\");\n\
-         }}\n"
-    );
-    let out = avr::run_program(&sim, &plan, &main, &scratch("c-avr-mulhi"));
-    let got: Vec<i64> = out
-        .lines()
-        .find_map(|l| l.strip_prefix("out 0 "))
-        .unwrap_or_else(|| panic!("no report:\n{out}"))
-        .split_whitespace()
-        .map(|x| x.parse().unwrap())
-        .collect();
-    assert_eq!(got[0], 27 * 27 + 12_000, "pairs checked");
     assert_eq!(
-        got[1], 0,
-        "high products that differ from the formula (the first: {} * {})",
-        got[2], got[3]
+        bad, 0,
+        "high products that differ from the formula (the first: {a} * {b})"
     );
 }
 

@@ -339,9 +339,7 @@ impl Lowerer<'_> {
         }
         // A product shifted left by k is the product with k more fraction bits.
         if let Op::Shl(s, k) = x.op {
-            // Only a change of binary point (the same physical value), not a product by 2^k.
-            let rescale = self.v(s).frac + k as i32 == x.frac;
-            if k < n && rescale && !x.network && matches!(self.v(s).op, Op::Mul(..)) {
+            if k < n && self.is_rescale(v) && matches!(self.v(s).op, Op::Mul(..)) {
                 return self.high_product(s, n - k, span, out);
             }
             return Ok(None);
@@ -366,8 +364,7 @@ impl Lowerer<'_> {
         let up = 32u32.saturating_sub(n);
         let (rl, rh) = (lo << up, hi << up);
         let magnitude = err_bound::magnitude(rl.abs().max(rh.abs()), x.frac - n as i32);
-        let fits = rl >= i128::from(i32::MIN) && rh <= i128::from(i32::MAX);
-        if !fits || trunc > magnitude * pow2(-16) {
+        if !fits_i32(rl, rh) || trunc > magnitude * pow2(-16) {
             return Ok(None);
         }
         let ca = self.cast(a, i32t, out);
@@ -391,14 +388,33 @@ impl Lowerer<'_> {
         Ok(Some(r))
     }
 
+    /// Whether `id` is `s << k` that only moves the binary point (`s`'s value re-expressed
+    /// with `k` more fraction bits), not a product by 2^k (a shift-add network's term).
+    fn is_rescale(&self, id: ValId) -> bool {
+        let w = self.v(id);
+        matches!(w.op, Op::Shl(s, k) if !w.network && self.v(s).frac + k as i32 == w.frac)
+    }
+
+    /// The value under `id`'s wider-than-32-bit widening casts and changes of binary point
+    /// ([`Self::is_rescale`]): the same physical value, perhaps with fewer fraction bits.
+    fn under_rescales(&self, mut id: ValId) -> ValId {
+        while self.v(id).ty.bits > 32 {
+            match self.v(id).op {
+                Op::Cast(s) if self.v(s).frac == self.v(id).frac => id = s,
+                Op::Shl(s, _) if self.is_rescale(id) => id = s,
+                _ => break,
+            }
+        }
+        id
+    }
+
     /// `id` as a value of at most 32 bits, where its interval fits `i32`: itself, the source of
     /// its widening casts, or (to `depth` levels) its sum, difference, negation or exact left
     /// shift recomputed in `i32` from operands that are such values. The same integer: each
     /// operation is exact, and every interval is inside `i32`. `None` otherwise.
     fn narrow32(&mut self, id: ValId, depth: u32, out: &mut Vec<LStmt>) -> Option<ValId> {
         let w = self.v(id).clone();
-        let fits = |lo: i128, hi: i128| lo >= i128::from(i32::MIN) && hi <= i128::from(i32::MAX);
-        if w.boolean || !fits(w.lo, w.hi) {
+        if w.boolean || !fits_i32(w.lo, w.hi) {
             return None;
         }
         if w.ty.bits <= 32 {
@@ -499,9 +515,7 @@ impl Lowerer<'_> {
         terms(self, v, false, &mut ts);
         let product = |me: &Self, t: ValId| match me.v(t).op {
             Op::Mul(..) => true,
-            Op::Shl(s, k) => {
-                matches!(me.v(s).op, Op::Mul(..)) && me.v(s).frac + k as i32 == me.v(t).frac
-            }
+            Op::Shl(s, _) => matches!(me.v(s).op, Op::Mul(..)) && me.is_rescale(t),
             _ => false,
         };
         let products = ts.iter().any(|&(_, t)| product(self, t));
@@ -511,30 +525,15 @@ impl Lowerer<'_> {
         // With products, the terms are added at the high products' binary point, then
         // shifted left exactly to the result's (a product rounded by less than 32 bits).
         let m = if products { n.max(32) } else { n };
-        // A term of at most 32 bits under widening casts and exact left shifts.
-        let narrow = |me: &mut Self, mut id: ValId, out: &mut Vec<LStmt>| {
-            while me.v(id).ty.bits > 32 {
-                match me.v(id).op {
-                    Op::Cast(s) if me.v(s).frac == me.v(id).frac => id = s,
-                    Op::Shl(s, k)
-                        if !me.v(id).network && me.v(s).frac + k as i32 == me.v(id).frac =>
-                    {
-                        id = s
-                    }
-                    _ => return me.narrow32(id, 4, out),
-                }
-            }
-            let w = me.v(id);
-            (w.lo >= i128::from(i32::MIN) && w.hi <= i128::from(i32::MAX) && !w.boolean)
-                .then_some(id)
+        // A term of at most 32 bits under widening casts and changes of binary point (each
+        // term is rescaled to the sum's format after).
+        let narrow = |me: &mut Self, id: ValId, out: &mut Vec<LStmt>| {
+            let id = me.under_rescales(id);
+            me.narrow32(id, 4, out)
         };
         let frac = x.frac - m as i32;
-        let fits = |w: &super::lir::Val| {
-            w.ty.bits <= 32 && w.lo >= i128::from(i32::MIN) && w.hi <= i128::from(i32::MAX)
-        };
+        let fits = |w: &super::lir::Val| w.ty.bits <= 32 && fits_i32(w.lo, w.hi);
         let i32t = IntTy::signed(32);
-        let fits_i32 =
-            |lo: i128, hi: i128| lo >= i128::from(i32::MIN) && hi <= i128::from(i32::MAX);
         let mut rounded = Vec::with_capacity(ts.len());
         for &(neg, t) in &ts {
             let r = match self.v(t).op {
@@ -589,7 +588,7 @@ impl Lowerer<'_> {
         let mut acc = self.cast(first, i32t, out);
         if neg0 {
             let a = self.v(acc).clone();
-            if -a.hi < i128::from(i32::MIN) || -a.lo > i128::from(i32::MAX) {
+            if !fits_i32(-a.hi, -a.lo) {
                 return Ok(None);
             }
             acc = self.push(
@@ -612,7 +611,7 @@ impl Lowerer<'_> {
             } else {
                 (Op::Add(acc, r), a.lo + b.lo, a.hi + b.hi)
             };
-            if lo < i128::from(i32::MIN) || hi > i128::from(i32::MAX) {
+            if !fits_i32(lo, hi) {
                 return Ok(None);
             }
             acc = self.push(
@@ -773,4 +772,9 @@ impl Lowerer<'_> {
             }
         }
     }
+}
+
+/// Whether the integers `lo..=hi` are all inside `i32`.
+fn fits_i32(lo: i128, hi: i128) -> bool {
+    lo >= i128::from(i32::MIN) && hi <= i128::from(i32::MAX)
 }

@@ -123,14 +123,7 @@ pub(super) fn product_helper() -> String {
         asm.push(format!("movw {to},{from}"));
     }
     asm.extend(saved.iter().rev().map(|x| format!("pop {x}")));
-    let mut body = String::new();
-    for l in &asm {
-        if l.starts_with("/*") {
-            let _ = writeln!(body, "        {l}");
-        } else {
-            let _ = writeln!(body, "        \"{l}\\n\"");
-        }
-    }
+    let body = asm_template(&asm);
     format!(
         "/* a * b of int32_t factors, exactly. On an AVR core with MUL: the sixteen byte products\n\
          \x20* summed column by column into the eight result bytes (each column's sum fits three\n\
@@ -138,7 +131,7 @@ pub(super) fn product_helper() -> String {
          \x20* a < 0, minus a * 2^32 if b < 0); 158 cycles against 243 for\n\
          \x20* avr-gcc's __mulsidi3 (simavr, operands from memory).\n\
          \x20* Elsewhere, and for Frama-C, the plain product. */\n\
-         #if defined(__GNUC__) && defined(__AVR__) && defined(__AVR_HAVE_MUL__) && !defined(__FRAMAC__)\n\
+         {AVR_MUL_ASM}\n\
          static __attribute__((noinline)) int64_t qloop_mul64(int32_t a, int32_t b)\n\
          {{\n\
          \x20   register int32_t ra __asm__(\"r22\") = a;\n\
@@ -223,21 +216,14 @@ pub(super) fn high_product_helper() -> String {
     asm.push("movw r22,r12".to_string());
     asm.push("movw r24,r14".to_string());
     asm.extend(saved.iter().rev().map(|r| format!("pop {r}")));
-    let mut body = String::new();
-    for l in &asm {
-        if l.starts_with("/*") {
-            let _ = writeln!(body, "        {l}");
-        } else {
-            let _ = writeln!(body, "        \"{l}\\n\"");
-        }
-    }
+    let body = asm_template(&asm);
     format!(
         "/* The high word of a * b from three 16 x 16 -> 32-bit pieces, h(x) = x >> 16 and\n\
          \x20* l(x) = x & 0xFFFF: h(a)h(b) + (h(a)l(b) >> 16) + (l(a)h(b) >> 16), within 3 below\n\
          \x20* a * b / 2^32 (qloop's plan, lower::lir::mul_hi); every piece fits int32_t. On an\n\
          \x20* AVR core with MUL: twelve byte products, each piece corrected for the signs of the\n\
          \x20* halves. Elsewhere, and for Frama-C, the plain formula. */\n\
-         #if defined(__GNUC__) && defined(__AVR__) && defined(__AVR_HAVE_MUL__) && !defined(__FRAMAC__)\n\
+         {AVR_MUL_ASM}\n\
          static __attribute__((noinline)) int32_t qloop_mulhi(int32_t a, int32_t b)\n\
          {{\n\
          \x20   register int32_t ra __asm__(\"r22\") = a;\n\
@@ -254,6 +240,25 @@ pub(super) fn high_product_helper() -> String {
          }}\n\
          #endif\n\n"
     )
+}
+
+/// The preprocessor test under which a helper is its `asm` form: avr-gcc on a core with `MUL`,
+/// and not Frama-C, which reads the plain C of the same function instead.
+const AVR_MUL_ASM: &str =
+    "#if defined(__GNUC__) && defined(__AVR__) && defined(__AVR_HAVE_MUL__) && !defined(__FRAMAC__)";
+
+/// The lines of an `asm` block as the C string literals of its template, one instruction a
+/// line (`"mul r22,r18\n"`), a `/* ... */` line kept as a C comment between them.
+fn asm_template(asm: &[String]) -> String {
+    let mut body = String::new();
+    for l in asm {
+        if l.starts_with("/*") {
+            let _ = writeln!(body, "        {l}");
+        } else {
+            let _ = writeln!(body, "        \"{l}\\n\"");
+        }
+    }
+    body
 }
 
 /// Whether the step has an [`Op::MulHi`].
