@@ -22,10 +22,10 @@ const ACCEPTANCE_SPECS: usize = 10_000;
 const RANDOM_CASES: usize = 4;
 
 /// Compiles specs drawn with `seed` until `want` compile; checks each. Returns (compiled,
-/// refused, cases, bound comparisons, branch differences, plans with a high product) or the
-/// first failure.
-fn run(seed: u64, want: usize, target: &Target) -> Result<[usize; 6], String> {
-    let mut n = [0usize; 6];
+/// refused, cases, bound comparisons, branch differences, plans with a high product, plans
+/// with a short product) or the first failure.
+fn run(seed: u64, want: usize, target: &Target) -> Result<[usize; 7], String> {
+    let mut n = [0usize; 7];
     let mut batch = 0u64;
     while n[0] < want {
         for sp in sample(seed.wrapping_add(batch), 500) {
@@ -46,6 +46,7 @@ fn run(seed: u64, want: usize, target: &Target) -> Result<[usize; 6], String> {
                     .iter()
                     .any(|v| matches!(v.op, qloop::lower::lir::Op::MulHi(..))),
             );
+            n[6] += usize::from(has_short_product(&plan));
             shifts_within_width(&plan).map_err(|e| format!("{e} in\n{}", sp.src))?;
             let mut s = seed ^ (n[0] as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
             for case in cases(&plan, &mut s, RANDOM_CASES) {
@@ -62,12 +63,12 @@ fn run(seed: u64, want: usize, target: &Target) -> Result<[usize; 6], String> {
 }
 
 /// Compiles `specs` random specs drawn from `seed`, on every core, and checks each.
-fn random_specs(seed: u64, specs: usize, target: &Target) -> usize {
+fn random_specs(seed: u64, specs: usize, target: &Target) -> (usize, usize) {
     let threads = std::thread::available_parallelism()
         .map_or(2, |n| n.get())
         .clamp(1, 8);
     let per = specs.div_ceil(threads);
-    let results: Vec<Result<[usize; 6], String>> = std::thread::scope(|s| {
+    let results: Vec<Result<[usize; 7], String>> = std::thread::scope(|s| {
         let hs: Vec<_> = (0..threads as u64)
             .map(|t| s.spawn(move || run(seed.wrapping_add(t << 32), per, target)))
             .collect();
@@ -75,7 +76,7 @@ fn random_specs(seed: u64, specs: usize, target: &Target) -> usize {
             .map(|h| h.join().unwrap_or_else(|_| Err("a worker panicked".into())))
             .collect()
     });
-    let mut total = [0usize; 6];
+    let mut total = [0usize; 7];
     for r in results {
         let n = r.unwrap_or_else(|e| panic!("seed {seed}: {e}"));
         for (t, x) in total.iter_mut().zip(n) {
@@ -90,7 +91,29 @@ fn random_specs(seed: u64, specs: usize, target: &Target) -> usize {
     assert!(total[0] >= specs, "only {} specs compiled", total[0]);
     // The corners must be reached: many cases, and some decided inside a band.
     assert!(total[2] >= 10 * specs, "only {} cases", total[2]);
-    total[5]
+    (total[5], total[6])
+}
+
+/// Whether the plan has a short product (`lower/rounding.rs`, `short_product`): `⌊a·b/2^16⌋`
+/// as `a·h(b) + ⌊a·l(b)/2^16⌋`, seen as a 16-bit shift of a product by the low half of a
+/// value (`Low(b, 16)` under its casts).
+fn has_short_product(plan: &qloop::Plan) -> bool {
+    use qloop::lower::lir::Op;
+    let under_casts = |mut id| {
+        while let Op::Cast(s) = plan.val(id).op {
+            id = s;
+        }
+        id
+    };
+    plan.vals.iter().any(|v| match v.op {
+        Op::Shr(p, 16) => match plan.val(p).op {
+            Op::Mul(a, b) => [a, b]
+                .iter()
+                .any(|&f| matches!(plan.val(under_casts(f)).op, Op::Low(_, 16))),
+            _ => false,
+        },
+        _ => false,
+    })
 }
 
 #[test]
@@ -100,22 +123,59 @@ fn printed_bounds_hold_against_exact_arithmetic_on_random_specs() {
 }
 
 /// The same on the ATmega328P, whose plan computes a product rounded to 32 bits as its high
-/// word from three 16 x 16 pieces (`Op::MulHi`), its sums term by term in 32 bits, and a
-/// clamped product on the high word (`lower/rounding.rs`): the printed bounds, which add the
-/// truncation, hold against exact arithmetic.
+/// word from three 16 x 16 pieces (`Op::MulHi`), a product with a factor within `i16` rounded
+/// by 16 bits or more from two such pieces (a short product), its sums term by term in 32 bits,
+/// and a clamped product on the high word (`lower/rounding.rs`): the printed bounds, which add
+/// the truncation, hold against exact arithmetic.
 #[test]
 fn printed_bounds_hold_against_exact_arithmetic_on_random_specs_for_the_avr() {
     let seed = run_seed("printed_bounds_hold_against_exact_arithmetic_on_random_specs_for_the_avr");
     let avr = qloop::targets::by_name("atmega328p").expect("built-in target");
     // About 1 plan in 40 has a high product (a variable product rounded to 32 bits): three
     // times the specs, and at least five of them.
-    let high = random_specs(seed, 3 * SPECS, &avr);
-    eprintln!("{high} plans with a high product");
+    let (high, short) = random_specs(seed, 3 * SPECS, &avr);
+    eprintln!("{high} plans with a high product, {short} with a short product");
     assert!(
         high >= 5,
         "only {high} of {} AVR plans have a high product",
         3 * SPECS
     );
+    // About 1 plan in 50 has one; `printed_bounds_hold_for_short_products_on_the_avr` always
+    // does.
+    assert!(
+        short >= 1,
+        "none of {} AVR plans has a short product",
+        3 * SPECS
+    );
+}
+
+/// A dot product of a covariance-like row (`Q(i32, 12)` within ±2, so within `i16`) with a
+/// regressor in `Q(i32, 30)`, rounded by 16 bits: on the ATmega328P each product is a short
+/// product (two 16 x 16 pieces, summed in 32 bits), and the printed bounds hold against exact
+/// arithmetic on 2,000 cases and every corner.
+#[test]
+fn printed_bounds_hold_for_short_products_on_the_avr() {
+    let src = "controller short_product {
+    period 0.01;
+    rounding floor;
+    #[q(i32, 30)]
+    input phi: [-1.0, 1.0];
+    #[q(i32, 30)]
+    input w: [-1.0, 1.0];
+    #[q(i32, 12)]
+    state p[2]: [-2.0, 2.0] = [0.5, -0.25];
+    output y: [-8.0, 8.0];
+    step {
+        #[q(i32, 26)]
+        let q = p[0] * phi + p[1] * w;
+        y = q;
+        p[0] = clamp(p[0] + 0.001 * q, -2.0, 2.0);
+    }
+}";
+    let avr = qloop::targets::by_name("atmega328p").expect("built-in target");
+    let plan = qloop::compile_str(src, &avr).unwrap_or_else(|e| panic!("{}", e.message));
+    assert!(has_short_product(&plan), "no short product in the AVR plan");
+    printed_bounds_hold_for("short_product", src, &avr);
 }
 
 #[test]

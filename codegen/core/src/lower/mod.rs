@@ -1415,7 +1415,22 @@ impl<'a> Lowerer<'a> {
     /// rounding each: a chain of one-bit roundings to nearest would round twice).
     fn mul(&mut self, a: ValId, b: ValId, span: Span, out: &mut Vec<LStmt>) -> Result<ValId> {
         let (mut a, mut b) = (a, b);
-        let (drop_a, drop_b) = self.bits_to_drop(a, b);
+        let (mut drop_a, mut drop_b) = self.bits_to_drop(a, b);
+        if self.target.multiplier.high_product {
+            // On a target with high products, an operand wider than 32 bits (an inner product
+            // rounded only as far as the 64-bit product needs) is rounded until it fits `i32`:
+            // it keeps at least 31 significant bits, and the product is one of 32×32 bits,
+            // which `rounding::high_product` and `rounding::high_sum` can take.
+            for (v, d) in [(a, &mut drop_a), (b, &mut drop_b)] {
+                let x = self.v(v);
+                while !x.boolean && *d < 64 && {
+                    let (lo, hi) = self.rounded(x.lo, x.hi, *d);
+                    !rounding::fits_i32(lo, hi)
+                } {
+                    *d += 1;
+                }
+            }
+        }
         if drop_a > 0 {
             a = self.round(a, drop_a, span, out)?;
         }

@@ -356,6 +356,9 @@ impl Lowerer<'_> {
         let (Some(a), Some(b)) = (self.narrow32(a, 4, out), self.narrow32(b, 4, out)) else {
             return Ok(None);
         };
+        if let Some(r) = self.short_product(&x, a, b, n, span, out)? {
+            return Ok(Some(r));
+        }
         let i32t = IntTy::signed(32);
         let (va, vb) = (self.v(a).clone(), self.v(b).clone());
         let (lo, hi) = super::lir::mul_hi_range((va.lo, va.hi), (vb.lo, vb.hi));
@@ -386,6 +389,110 @@ impl Lowerer<'_> {
             self.shl(m, up, span, out)?
         };
         Ok(Some(r))
+    }
+
+    /// The product `x = a·b` (`a`, `b` of at most 32 bits, one of them within `i16`) rounded
+    /// by `n ≥ 16`, from two 16×16→32-bit products and no truncation: with `h(b) = ⌊b/2^16⌋`
+    /// and `l(b) = b − 2^16·h(b) ∈ [0, 2^16)`, `a·b = 2^16·a·h(b) + a·l(b)`, so
+    /// `⌊a·b/2^16⌋ = a·h(b) + ⌊a·l(b)/2^16⌋` exactly; then rounded by the other `n − 16` bits.
+    /// The pieces are typed so that a C compiler sees 16-bit operands (`int16_t` and
+    /// `uint16_t` widened to `int32_t`), which avr-gcc multiplies in four `MUL`s each. The error
+    /// bound adds the floor of 16 bits (`2^16 − 1` LSBs of the product, whatever the
+    /// program's rounding) to `x`'s. `None` where neither factor fits `i16` or a piece or the
+    /// result does not fit `i32`.
+    fn short_product(
+        &mut self,
+        x: &super::lir::Val,
+        a: ValId,
+        b: ValId,
+        n: u32,
+        span: Span,
+        out: &mut Vec<LStmt>,
+    ) -> Result<Option<ValId>> {
+        let i16t = IntTy::signed(16);
+        let in16 = |me: &Self, id: ValId| i16t.holds(me.v(id).lo, me.v(id).hi);
+        let (a, b) = match (in16(self, a), in16(self, b)) {
+            (true, _) => (a, b),
+            (false, true) => (b, a),
+            (false, false) => return Ok(None),
+        };
+        let (va, vb) = (self.v(a).clone(), self.v(b).clone());
+        if va.frac + vb.frac != x.frac {
+            return Ok(None);
+        }
+        let product = |(al, ah): (i128, i128), (bl, bh): (i128, i128)| {
+            let c = [al * bl, al * bh, ah * bl, ah * bh];
+            (
+                c.iter().copied().min().unwrap_or(0),
+                c.iter().copied().max().unwrap_or(0),
+            )
+        };
+        let (hl, hh) = (vb.lo >> 16, vb.hi >> 16);
+        let (p1l, p1h) = product((va.lo, va.hi), (hl, hh));
+        let (p2l, p2h) = product((va.lo, va.hi), (0, 0xFFFF));
+        let (rl, rh) = (p1l + (p2l >> 16), p1h + (p2h >> 16));
+        if !(fits_i32(p1l, p1h) && fits_i32(p2l, p2h) && fits_i32(rl, rh)) {
+            return Ok(None);
+        }
+        let (i32t, u16t) = (IntTy::signed(32), IntTy::unsigned(16));
+        let frac = va.frac + vb.frac;
+        let first_new = self.vals.len();
+        let a16 = self.cast(a, i16t, out);
+        let a32 = self.cast(a16, i32t, out);
+        let b32 = self.cast(b, i32t, out);
+        let mut piece = |me: &mut Self, op: Op, ty: IntTy, frac: i32, (lo, hi): (i128, i128)| {
+            me.push(
+                NewVal {
+                    op,
+                    ty,
+                    frac,
+                    lo,
+                    hi,
+                    err: 0.0,
+                },
+                out,
+            )
+        };
+        let h = piece(self, Op::Shr(b32, 16), i32t, vb.frac - 16, (hl, hh));
+        let h = piece(self, Op::Cast(h), i16t, vb.frac - 16, (hl, hh));
+        let h = piece(self, Op::Cast(h), i32t, vb.frac - 16, (hl, hh));
+        let l = piece(self, Op::Low(b32, 16), i32t, vb.frac, (0, 0xFFFF));
+        let l = piece(self, Op::Cast(l), u16t, vb.frac, (0, 0xFFFF));
+        let l = piece(self, Op::Cast(l), i32t, vb.frac, (0, 0xFFFF));
+        // The 16-bit factors stay opaque to the optimiser (as a network's terms do): else
+        // avr-gcc sees through the truncations and multiplies in 32 bits (`__mulsi3`, not
+        // `__mulhisi3` and `__usmulhisi3`).
+        for f in [a32, h, l] {
+            let src = match self.v(f).op {
+                Op::Cast(s) => s,
+                _ => f,
+            };
+            if src.0 >= first_new {
+                self.vals[src.0].network = true;
+            }
+        }
+        let p1 = piece(self, Op::Mul(a32, h), i32t, frac - 16, (p1l, p1h));
+        let p2 = piece(self, Op::Mul(a32, l), i32t, frac, (p2l, p2h));
+        let p2 = piece(
+            self,
+            Op::Shr(p2, 16),
+            i32t,
+            frac - 16,
+            (p2l >> 16, p2h >> 16),
+        );
+        let floor16 = (pow2(16) - 1.0) * pow2(-x.frac);
+        let r = self.push(
+            NewVal {
+                op: Op::Add(p1, p2),
+                ty: i32t,
+                frac: frac - 16,
+                lo: rl,
+                hi: rh,
+                err: err_bound::add(x.err, floor16),
+            },
+            out,
+        );
+        Ok(Some(self.round(r, n - 16, span, out)?))
     }
 
     /// Whether `id` is `s << k` that only moves the binary point (`s`'s value re-expressed
@@ -523,8 +630,28 @@ impl Lowerer<'_> {
             return Ok(None);
         }
         // With products, the terms are added at the high products' binary point, then
-        // shifted left exactly to the result's (a product rounded by less than 32 bits).
-        let m = if products { n.max(32) } else { n };
+        // shifted left exactly to the result's (a product rounded by less than 32 bits);
+        // where every product has a factor within `i16`, at the result's
+        // ([`Self::short_product`], which keeps every bit above the rounding).
+        let short = |me: &Self, t: ValId| {
+            // A rescaled product `p << k` is `p` rounded by `n − k`, which must be 16 or more.
+            let (t, k) = match me.v(t).op {
+                Op::Shl(s, k) if me.is_rescale(t) => (s, k),
+                _ => (t, 0),
+            };
+            let Op::Mul(a, b) = me.v(t).op else {
+                return false;
+            };
+            if n < k + 16 {
+                return false;
+            }
+            let i16t = IntTy::signed(16);
+            let (va, vb) = (me.v(a), me.v(b));
+            (i16t.holds(va.lo, va.hi) && fits_i32(vb.lo, vb.hi))
+                || (i16t.holds(vb.lo, vb.hi) && fits_i32(va.lo, va.hi))
+        };
+        let all_short = ts.iter().all(|&(_, t)| !product(self, t) || short(self, t));
+        let m = if products && !all_short { n.max(32) } else { n };
         // A term of at most 32 bits under widening casts and changes of binary point (each
         // term is rescaled to the sum's format after).
         let narrow = |me: &mut Self, id: ValId, out: &mut Vec<LStmt>| {
@@ -775,6 +902,6 @@ impl Lowerer<'_> {
 }
 
 /// Whether the integers `lo..=hi` are all inside `i32`.
-fn fits_i32(lo: i128, hi: i128) -> bool {
+pub(super) fn fits_i32(lo: i128, hi: i128) -> bool {
     lo >= i128::from(i32::MIN) && hi <= i128::from(i32::MAX)
 }
