@@ -365,6 +365,7 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
         }
     }
     o.push_str(&quantised_params(plan));
+    o.push_str(&budget_report(plan));
     o.push_str(&recips(plan));
     o.push_str(&tracks(plan));
     o.push_str(&tables(plan));
@@ -404,6 +405,99 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
         o,
         "Errors are one-step bounds against real arithmetic from the same state and inputs, \
 assuming both take the same branches."
+    );
+    o
+}
+
+/// The formats chosen against the spec's `#[error]` budgets (nothing without budgets): each
+/// narrowed choice, each budget with its use, and the cost model's estimate against the
+/// default formats.
+fn budget_report(plan: &Plan) -> String {
+    let Some(t) = &plan.tuning else {
+        return String::new();
+    };
+    let p = &plan.prog;
+    let mut o = String::new();
+    let _ = writeln!(o);
+    let _ = writeln!(
+        o,
+        "Formats chosen against the error budgets (for {}; {} plans lowered):",
+        plan.target.name, t.plans
+    );
+    if t.choices.is_empty() {
+        let _ = writeln!(o, "  (none narrower than the default formats)");
+    }
+    for c in &t.choices {
+        let s = p.sig(c.ids[0]);
+        let name = match (&s.elem, c.ids.len()) {
+            (Some(e), n) if n > 1 => format!("{}[..] ({n} elements)", e.group),
+            _ => s.label(),
+        };
+        let _ = writeln!(
+            o,
+            "  {name:<24} {:<6}  {} -> {}",
+            kind_name(s.kind),
+            c.default,
+            c.chosen
+        );
+    }
+    let rows: Vec<Vec<String>> = t
+        .budgets
+        .iter()
+        .map(|b| {
+            vec![
+                p.sig(b.id).label(),
+                format!("{:.3e}", b.budget),
+                bound(b.default_err),
+                bound(b.err),
+                format!("{:.0}%", (100.0 * b.err / b.budget).ceil()),
+                if b.binds { "binds" } else { "" }.to_string(),
+            ]
+        })
+        .collect();
+    let head: Vec<String> = [
+        "budget on",
+        "bound",
+        "default error",
+        "chosen error",
+        "used",
+        "",
+    ]
+    .iter()
+    .map(|h| h.to_string())
+    .collect();
+    let _ = writeln!(o);
+    o.push_str(&table(&head, &rows));
+    if !t.kept.is_empty() {
+        let names: Vec<String> = t
+            .kept
+            .iter()
+            .map(|id| format!("`{}`", p.sig(*id).label()))
+            .collect();
+        let _ = writeln!(
+            o,
+            "  kept as accurate as the default (no budget of their own), which refused a narrower choice: {}",
+            names.join(", ")
+        );
+    }
+    let pct = |a: u64, b: u64| {
+        if b == 0 {
+            String::new()
+        } else {
+            format!(" ({:+.1} %)", 100.0 * (a as f64 - b as f64) / b as f64)
+        }
+    };
+    let (d, c) = (t.default_cost, t.chosen_cost);
+    let _ = writeln!(
+        o,
+        "  cost model: {} cycles a step, size {} against the default formats' {} and {}: \
+         cycles{}, size{} (an estimate to rank formats; `qloop bench` measures)",
+        c.cycles,
+        c.size,
+        d.cycles,
+        d.size,
+        pct(c.cycles, d.cycles),
+        pct(c.size, d.size)
     );
     o
 }

@@ -88,6 +88,33 @@ pub fn spec_source(stem: &str) -> String {
     std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
+/// The GAC seed with its hand-chosen 32-bit formats (`#[q(i32, ..)]`) removed and error
+/// budgets in their place (`#[error(..)]`, issue 37): 1e-4 mm/rev on the feed and its
+/// state, 4e-2 µm on θ, 8e-2 on the covariance, none on `pred` (which must then stay as
+/// accurate as without budgets). The 16-bit table samples stay pinned.
+pub fn gac_with_budgets() -> String {
+    let src = spec_source("gac_surface_finish");
+    let unpinned: Vec<&str> = src
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("#[q(i32,"))
+        .collect();
+    let mut s = unpinned.join("\n");
+    for (decl, budget) in [
+        ("    state f: ", "1e-4"),
+        ("    output feed: ", "1e-4"),
+        ("    state theta[2]", "4e-2"),
+        ("    state P[2]", "8e-2"),
+    ] {
+        assert!(s.contains(decl), "the GAC seed declares `{decl}`");
+        s = s.replacen(decl, &format!("    #[error({budget})]\n{decl}"), 1);
+    }
+    s.replacen(
+        "controller gac_surface_finish ",
+        "controller gac_budgeted ",
+        1,
+    )
+}
+
 /// The harness module `qloop gen --lang kani` writes for a seed spec (default target),
 /// generated once per test process and kept: the workspace's integration tests are one
 /// binary, so the multi-model controller's 27 MB module is generated once per run however many

@@ -233,7 +233,8 @@ test_tools::spec_tests! {
 }
 
 /// The printed bounds of the estimating seeds' ATmega328P plans (high products, sums in 32
-/// bits, clamps on the high word) hold against exact arithmetic.
+/// bits, clamps on the high word), and of GAC's with formats chosen against error budgets,
+/// hold against exact arithmetic.
 #[test]
 #[ignore = "acceptance tier (docs/book/src/internals/tests.md)"]
 fn printed_bounds_hold_on_the_avr_plans_of_the_estimating_seeds() {
@@ -248,6 +249,8 @@ fn printed_bounds_hold_on_the_avr_plans_of_the_estimating_seeds() {
         printed_bounds_hold_for(stem, &src, &avr);
     }
     printed_bounds_hold_for("milling_zoh", include_str!("milling_zoh.qloop"), &avr);
+    // Its formats searched against error budgets instead of pinned (`budget.rs`).
+    printed_bounds_hold_for("gac_budgeted", &qloop_tests::gac_with_budgets(), &avr);
 }
 
 /// The printed bounds of a claim corpus spec that compiles hold against exact arithmetic.
@@ -259,6 +262,7 @@ fn printed_bounds_hold_on_the_claim_corpus(stem: &str) {
 test_tools::spec_tests! {
     printed_bounds_hold_on_the_claim_corpus in "tests/fixtures/claims";
     default: [
+        budget_narrows, budget_on_input, budget_on_let, budget_pinned, budget_unmeetable,
         clamp_gap, division_method, flag_continuous, flag_not_binary, infinite_const, infinite_product, newton_recip_range_spans_zero, newton_steps,
         no_input, no_state,
         pinned_let_type, recip_method, s21_zero_const, threshold_ge, thresholds_all_ops,

@@ -3,6 +3,7 @@
 //! generated text is generated once per run and `cargo test` runs every module in parallel).
 //! See the book's "Tests and their tiers" (docs/book/src/internals/tests.md) for what each tier holds.
 
+mod budget;
 mod c_float;
 mod c_output;
 mod c_tables;

@@ -390,6 +390,15 @@ impl Elem {
     }
 }
 
+/// An error budget, `#[error(E)]`.
+#[derive(Clone, Copy, Debug)]
+pub struct Budget {
+    /// The bound, in the signal's unit (positive).
+    pub err: f64,
+    /// The attribute, for errors.
+    pub span: Span,
+}
+
 /// One signal.
 #[derive(Clone, Debug)]
 pub struct Signal {
@@ -409,6 +418,10 @@ pub struct Signal {
     pub pin: Option<QFormat>,
     /// Requested resolution, `#[lsb(1e-3)]`: the format must have LSB ≤ this.
     pub lsb: Option<f64>,
+    /// Error budget, `#[error(5e-4)]` on a state or output: the bound on one step's error
+    /// against real arithmetic (in the signal's unit) that the formats chosen for it and for
+    /// the `let`s before it must meet ([`crate::lower::budget`]).
+    pub budget: Option<Budget>,
     /// A claimed range, `#[range(LO, HI)]` on a `let`: trusted when sizing the computation,
     /// and an obligation for the prover.
     pub claim: Option<(f64, f64)>,

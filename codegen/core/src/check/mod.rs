@@ -213,6 +213,7 @@ impl Checker {
                 .help("add the update law as `step { .. }`")
         })?;
         self.word = word.map_or(32, |w| w.0);
+        self.refuse_budgets_on_ports()?;
         self.quantise_port_params();
         let body = self.block(&block.stmts)?;
         for (i, s) in self.signals.iter().enumerate() {
@@ -503,6 +504,30 @@ impl Checker {
     /// period): the command never exceeds what the spec wrote. A parameter whose signal has
     /// no format yet (a vector, a range that does not fit) is left as written: the format's
     /// own error comes later.
+    /// A rule's port keeps the format it has without a budget: its parameters are moved onto
+    /// that format's grid here, before any format search, and the rule's properties are about
+    /// the moved values.
+    fn refuse_budgets_on_ports(&self) -> Result<()> {
+        for pp in &self.port_params {
+            let Some(id) = self.lookup(&pp.signal) else {
+                continue;
+            };
+            if let Some(b) = self.signals[id.0].budget {
+                return Err(Diag::new(
+                    b.span,
+                    format!("`{}` is a rule's port: its format is fixed", pp.signal),
+                )
+                .label("not applied")
+                .help(
+                    "the rule's parameters in its unit are moved onto the port's grid before \
+                     formats are searched; remove `#[error(..)]` here and budget the signals \
+                     that feed it",
+                ));
+            }
+        }
+        Ok(())
+    }
+
     fn quantise_port_params(&mut self) {
         // Each value's exact enclosure first, from the parameters as written (a rule constant
         // `K * UP` is moved from `K · UP`, not from `UP` moved), or its f64 value where it has
@@ -555,10 +580,29 @@ impl Checker {
         let Attrs {
             pin,
             lsb,
+            budget,
             claim,
             unsaturated,
             flag,
         } = fmt_attrs(&s.attrs, &|e| self.const_eval(e))?;
+        if let Some(b) = budget {
+            if s.kind == SignalKw::Input {
+                return Err(
+                    Diag::new(b.span, "an input has no error budget: it is read exactly").help(
+                        "put `#[error(BOUND)]` on the states and outputs whose accuracy you need",
+                    ),
+                );
+            }
+            if pin.is_some() {
+                return Err(Diag::new(
+                    b.span,
+                    "a pinned format leaves nothing to choose against an error budget",
+                )
+                .help(
+                    "remove `#[q(..)]` to let qloop choose the format, or remove `#[error(..)]`",
+                ));
+            }
+        }
         if let (Some(sp), false) = (flag, s.kind == SignalKw::Output) {
             return Err(Diag::new(sp, "`#[flag]` applies to outputs only")
                 .help("a flag is a 0/1 output: a `bit` pin in the LinuxCNC component"));
@@ -678,6 +722,7 @@ impl Checker {
             unit: s.unit.as_ref().map(|u| u.value()),
             pin,
             lsb,
+            budget,
             claim: None,
             unsaturated: unsaturated.is_some(),
             flag: flag.is_some(),
@@ -829,10 +874,16 @@ impl Checker {
                 let Attrs {
                     pin,
                     lsb,
+                    budget,
                     claim,
                     unsaturated,
                     flag,
                 } = fmt_attrs(&local.attrs, &|e| self.const_eval(e))?;
+                if let Some(b) = budget {
+                    return Err(Diag::new(b.span, "`#[error]` applies to states and outputs").help(
+                        "a `let` is sized for the budgets of the states and outputs it feeds; put `#[error(BOUND)]` on those",
+                    ));
+                }
                 if let Some(sp) = unsaturated {
                     return Err(Diag::new(sp, "`#[unsaturated]` applies to states only"));
                 }
@@ -858,6 +909,7 @@ impl Checker {
                     unit: unit_text,
                     pin,
                     lsb,
+                    budget: None,
                     claim: claim.map(|c| c.0),
                     unsaturated: false,
                     flag: false,
@@ -1499,6 +1551,7 @@ fn const_attrs(c: &ConstDecl) -> Result<(bool, bool)> {
 struct Attrs {
     pin: Option<QFormat>,
     lsb: Option<f64>,
+    budget: Option<crate::ir::Budget>,
     claim: Option<((f64, f64), Span)>,
     unsaturated: Option<Span>,
     flag: Option<Span>,
@@ -1520,6 +1573,7 @@ fn split_step_name(n: &str) -> Option<(&str, char, &str)> {
 fn fmt_attrs(attrs: &[syn::Attribute], eval: &dyn Fn(&SExpr) -> Result<f64>) -> Result<Attrs> {
     let mut pin = None;
     let mut lsb = None;
+    let mut budget = None;
     let mut claim = None;
     let mut unsaturated = None;
     let mut flag = None;
@@ -1596,15 +1650,32 @@ fn fmt_attrs(attrs: &[syn::Attribute], eval: &dyn Fn(&SExpr) -> Result<f64>) -> 
                 return Err(Diag::new(e.span(), "the LSB must be positive"));
             }
             lsb = Some(v);
+        } else if a.path().is_ident("error") {
+            let e: SExpr = a.parse_args().map_err(Diag::from)?;
+            let v = match &e {
+                SExpr::Lit(l) => lit_value(&l.lit)?,
+                _ => return Err(Diag::new(e.span(), "expected a number: `#[error(1e-3)]`")),
+            };
+            if !(v > 0.0 && v.is_finite()) {
+                return Err(Diag::new(
+                    e.span(),
+                    "an error budget must be positive and finite",
+                ));
+            }
+            budget = Some(crate::ir::Budget {
+                err: v,
+                span: a.span(),
+            });
         } else {
             return Err(Diag::new(a.span(), "unknown attribute").help(
-                "declarations take `///` docs, `#[q(TYPE, FRAC)]`, `#[lsb(RESOLUTION)]`, `#[range(LO, HI)]` (on `let`), `#[unsaturated]` (on states) and `#[flag]` (on outputs)",
+                "declarations take `///` docs, `#[q(TYPE, FRAC)]`, `#[lsb(RESOLUTION)]`, `#[error(BOUND)]` (on states and outputs), `#[range(LO, HI)]` (on `let`), `#[unsaturated]` (on states) and `#[flag]` (on outputs)",
             ));
         }
     }
     Ok(Attrs {
         pin,
         lsb,
+        budget,
         claim,
         unsaturated,
         flag,

@@ -16,8 +16,10 @@
 //! * Stores saturate to the declared range (quantised inward); clamps the analysis proves
 //!   unnecessary are not emitted. Inputs are clamped to their declared range on entry.
 
+pub mod budget;
 mod compare;
 mod const_mul;
+pub mod cost;
 pub use const_mul::CONST_REL;
 pub mod dce;
 mod err_bound;
@@ -54,6 +56,8 @@ pub struct Plan {
     pub mults: Vec<MulNote>,
     /// The integer arrays of the step's table look-ups.
     pub tables: Vec<table::LTable>,
+    /// The formats searched against the spec's `#[error]` budgets, if it has any.
+    pub tuning: Option<budget::Tuning>,
 }
 
 /// What the plan fixes for one signal: every consumer (emitters, prover, interpreter,
@@ -179,6 +183,14 @@ fn storage_bounds(sig: &Signal, q: QFormat) -> (i128, i128) {
 
 /// Lowers a checked program for a target.
 pub fn lower(prog: &Program, target: &Target) -> Result<Plan> {
+    if prog.signals.iter().any(|s| s.budget.is_some()) {
+        return budget::tune(prog, target);
+    }
+    lower_formats(prog, target)
+}
+
+/// Lowers `prog` with the formats its declarations give (ranges, the default word, pins).
+fn lower_formats(prog: &Program, target: &Target) -> Result<Plan> {
     let mut formats = vec![None; prog.signals.len()];
     for (i, s) in prog.signals.iter().enumerate() {
         if s.kind != SigKind::Local && (s.range.is_some() || s.pin.is_some()) {
@@ -562,6 +574,7 @@ impl Lowered {
             summary,
             mults: self.mults,
             tables: self.tables,
+            tuning: None,
         }
     }
 }
