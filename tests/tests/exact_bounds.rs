@@ -262,7 +262,8 @@ fn printed_bounds_hold_on_the_claim_corpus(stem: &str) {
 test_tools::spec_tests! {
     printed_bounds_hold_on_the_claim_corpus in "tests/fixtures/claims";
     default: [
-        budget_narrows, budget_on_input, budget_on_let, budget_pinned, budget_unmeetable,
+        budget_narrows, budget_on_input, budget_on_let, budget_on_port, budget_pinned,
+        budget_unmeetable,
         clamp_gap, division_method, flag_continuous, flag_not_binary, infinite_const, infinite_product, newton_recip_range_spans_zero, newton_steps,
         no_input, no_state,
         pinned_let_type, recip_method, s21_zero_const, threshold_ge, thresholds_all_ops,
