@@ -7,7 +7,7 @@
 //! step, from the same stored state and inputs, with the same branch decisions; see the
 //! book's "Fixed-point semantics") must stay at or below `E`, in the signal's unit.
 //!
-//! The search ([`tune`]) starts from the formats chosen without budgets (the *default*
+//! The search (`tune`) starts from the formats chosen without budgets (the *default*
 //! plan) and narrows one choice at a time, greedily, in declaration order:
 //! * the storage format of each budgeted state or output (a vector's elements together, as
 //!   its API shares one type), among the best formats of each narrower word for its range;
