@@ -291,7 +291,7 @@ impl Checker {
 }
 
 /// A literal's exact decimal value.
-fn lit_rational(l: &Lit) -> Option<BigRational> {
+pub(super) fn lit_rational(l: &Lit) -> Option<BigRational> {
     let digits = match l {
         Lit::Float(f) => f.base10_digits().to_string(),
         Lit::Int(i) => i.base10_digits().to_string(),

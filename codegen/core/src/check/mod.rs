@@ -1557,6 +1557,22 @@ struct Attrs {
     flag: Option<Span>,
 }
 
+/// The number literal of `#[NAME(NUMBER)]`: its f64 value, its exact decimal value and its
+/// span.
+fn number_attr(
+    a: &syn::Attribute,
+    name: &str,
+) -> Result<(f64, Option<num_rational::BigRational>, Span)> {
+    let e: SExpr = a.parse_args().map_err(Diag::from)?;
+    match &e {
+        SExpr::Lit(l) => Ok((lit_value(&l.lit)?, enclose::lit_rational(&l.lit), e.span())),
+        _ => Err(Diag::new(
+            e.span(),
+            format!("expected a number: `#[{name}(1e-3)]`"),
+        )),
+    }
+}
+
 /// `qloop_recip0_r3` → (`qloop_recip0`, `'r'`, `"3"`); the same for `_t3`.
 fn split_step_name(n: &str) -> Option<(&str, char, &str)> {
     let (head, k) = n.rsplit_once('_')?;
@@ -1641,29 +1657,19 @@ fn fmt_attrs(attrs: &[syn::Attribute], eval: &dyn Fn(&SExpr) -> Result<f64>) -> 
                 _ => return Err(bad().help("LO < HI")),
             }
         } else if a.path().is_ident("lsb") {
-            let e: SExpr = a.parse_args().map_err(Diag::from)?;
-            let v = match &e {
-                SExpr::Lit(l) => lit_value(&l.lit)?,
-                _ => return Err(Diag::new(e.span(), "expected a number: `#[lsb(1e-3)]`")),
-            };
+            let (v, _, at) = number_attr(a, "lsb")?;
             if v <= 0.0 {
-                return Err(Diag::new(e.span(), "the LSB must be positive"));
+                return Err(Diag::new(at, "the LSB must be positive"));
             }
             lsb = Some(v);
         } else if a.path().is_ident("error") {
-            let e: SExpr = a.parse_args().map_err(Diag::from)?;
-            let v = match &e {
-                SExpr::Lit(l) => lit_value(&l.lit)?,
-                _ => return Err(Diag::new(e.span(), "expected a number: `#[error(1e-3)]`")),
-            };
+            let (v, exact, at) = number_attr(a, "error")?;
             if !(v > 0.0 && v.is_finite()) {
-                return Err(Diag::new(
-                    e.span(),
-                    "an error budget must be positive and finite",
-                ));
+                return Err(Diag::new(at, "an error budget must be positive and finite"));
             }
+            // The f64 at or below the written decimal: a bound within it is within the budget.
             budget = Some(crate::ir::Budget {
-                err: v,
+                err: exact.map_or(v, |r| enclose::f64_down(&r)),
                 span: a.span(),
             });
         } else {

@@ -392,7 +392,8 @@ mod tests {
         let base = plan("").unwrap();
         let k = crate::ir::SigId(1);
         let at = base.summary[k.0].err;
-        let p = plan(&format!("#[error({at:e})]")).unwrap();
+        // Written out exactly (a budget is read as the f64 at or below its decimal).
+        let p = plan(&format!("#[error({at:.120e})]")).unwrap();
         // Any coarser format of `k` rounds it more: its own store error grows.
         assert_eq!(p.format(k), base.format(k));
         let t = p.tuning.as_ref().unwrap();
