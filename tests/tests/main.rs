@@ -10,6 +10,7 @@ mod c_tables;
 mod c_vectors;
 mod cascade;
 mod claims;
+mod elements;
 mod equations_doc;
 mod exact_bounds;
 mod faults;

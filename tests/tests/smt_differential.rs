@@ -111,8 +111,13 @@ fn as_equalities(enc: &str) -> String {
 }
 
 fn differential(stem: &str) {
+    differential_of(stem, &plan(stem));
+}
+
+/// [`differential`] on the plan `p` (of spec `stem`).
+fn differential_of(stem: &str, p: &Plan) {
+    let p = p.clone();
     assert!(Solver::Z3.available(), "z3 must be installed");
-    let p = plan(stem);
     let enc = encode_step(&p);
     assert!(enc.text.contains("(define-fun "), "{stem}: no definitions?");
     let text = as_equalities(&enc.text);
@@ -222,8 +227,13 @@ fn koren_masory_1981_proves() {
 /// output. Valid inputs are any bits here too: the encodings assume only that no value
 /// wraps, which the overflow obligations prove for exactly these pre-states.
 fn exact_differential(stem: &str, sort: Sort, solver: Solver) {
+    exact_differential_of(stem, &plan(stem), sort, solver);
+}
+
+/// [`exact_differential`] on the plan `p` (of spec `stem`).
+fn exact_differential_of(stem: &str, p: &Plan, sort: Sort, solver: Solver) {
+    let p = p.clone();
     assert!(solver.available(), "{} must be installed", solver.name());
-    let p = plan(stem);
     let full = |id: SigId| {
         let q = p.format(id);
         match p.prog.sig(id).kind {
@@ -307,4 +317,18 @@ test_tools::spec_tests! {
         gac_surface_finish, grinding_adaptive_pzc, koren_masory_safe, koren_masory_tuned,
         milling_multimodel,
     ];
+}
+
+/// A spec whose vectors' elements have formats of their own, in words of two widths
+/// (tests/elements.qloop): the encodings of every target's plan match the interpreter.
+#[test]
+fn per_element_formats_encode_as_the_interpreter_computes() {
+    let src = include_str!("elements.qloop");
+    for t in ["host", "atmega328p"] {
+        let target = qloop::targets::by_name(t).expect("built-in target");
+        let p = qloop::compile_str(src, &target).expect("elements.qloop compiles");
+        differential_of("elements", &p);
+        exact_differential_of("elements", &p, Sort::BitVec, Solver::Z3);
+        exact_differential_of("elements", &p, Sort::Int, Solver::Z3);
+    }
 }

@@ -70,6 +70,16 @@ impl IntTy {
             .find(|t| t.holds(lo, hi))
     }
 
+    /// The narrowest type that holds every value of `self` and of `other`: the wider of the
+    /// two where they agree in sign, else the narrowest signed type that holds both.
+    pub fn join(self, other: IntTy) -> IntTy {
+        if self.signed == other.signed {
+            return if self.bits >= other.bits { self } else { other };
+        }
+        let (lo, hi) = (self.min().min(other.min()), self.max().max(other.max()));
+        IntTy::signed_for(lo, hi, 8).unwrap_or(IntTy::signed(128))
+    }
+
     /// The Rust spelling, e.g. `i32`.
     pub fn rust_name(self) -> String {
         format!("{}{}", if self.signed { 'i' } else { 'u' }, self.bits)
@@ -187,6 +197,26 @@ mod tests {
         assert!(5.0 * pow2(29) > IntTy::signed(32).max() as f64);
         let q = QFormat::best_for(IntTy::unsigned(16), 0.0, 1.0).unwrap();
         assert_eq!(q.frac, 15);
+    }
+
+    #[test]
+    fn join_holds_both_types() {
+        let (i16_, i32_, u16_, u8_) = (
+            IntTy::signed(16),
+            IntTy::signed(32),
+            IntTy::unsigned(16),
+            IntTy::unsigned(8),
+        );
+        assert_eq!(i16_.join(i32_), i32_);
+        assert_eq!(i32_.join(i16_), i32_);
+        // u16's 65535 needs 17 signed bits.
+        assert_eq!(u16_.join(i16_), i32_);
+        assert_eq!(u8_.join(i16_), i16_);
+        assert_eq!(u8_.join(u16_), u16_);
+        for (a, b) in [(u16_, i16_), (u8_, i16_), (i16_, i32_)] {
+            let j = a.join(b);
+            assert!(j.holds(a.min(), a.max()) && j.holds(b.min(), b.max()));
+        }
     }
 
     #[test]

@@ -25,12 +25,15 @@
 //! Vectors and matrices (`state theta[2]`, `state P[2][2]`) are arrays in the structs
 //! (`int32_t theta[2];`, `int32_t P[2][2];`, row-major), read and written element by element
 //! (`self->P[1][0]`); inside `step` every element is a scalar local named as in the plan
-//! (`P_1_0`). Macros: one `NAME_THETA_FRAC` per vector (its elements share one format), and
-//! `_MIN`/`_MAX` per element, named after the element's generated name (`NAME_THETA_0_MIN`,
-//! `NAME_P_1_0_MAX`). An element has no `_FRAC` of its own, so a vector `a_0` (`NAME_A_0_FRAC`)
-//! and the element `a[0]` (`NAME_A_0_MIN`) do not collide, and the checker refuses a signal
-//! named like another's element (`a_0_0` beside `a[2][2]`). As for scalars, names that differ
-//! only in case give the same macros.
+//! (`P_1_0`). Macros: one `NAME_THETA_FRAC` per vector whose elements share a format, else a
+//! `_FRAC` per element with its indices after `FRAC` (`NAME_THETA_FRAC_0`, `NAME_P_FRAC_1_0`),
+//! and `_MIN`/`_MAX` per element, named after the element's generated name (`NAME_THETA_0_MIN`,
+//! `NAME_P_1_0_MAX`). An element's `_FRAC` is not named after the element, so a vector `a_0`
+//! (`NAME_A_0_FRAC`) and the element `a[0]` (`NAME_A_0_MIN`) do not collide, and the checker
+//! refuses a signal named like another's element (`a_0_0` beside `a[2][2]`). As for scalars,
+//! names that differ only in case give the same macros. A vector whose elements differ in type
+//! is one array of the widest (`int32_t theta[2]` for an `i16` and an `i32` element), each
+//! element's raw value in its own format (the book's "Vectors' formats").
 //!
 //! Frama-C: `step` carries an ACSL contract (valid pointers, each state inside its
 //! saturation bounds on entry and on exit). Under `__FRAMAC__` the `.c` file also defines an
@@ -132,6 +135,29 @@ pub fn c_lit(v: i128, ty: IntTy) -> String {
     }
 }
 
+/// The integer type signal `id` is stored in in the structs: its own, or its vector's
+/// ([`Plan::group_storage`]) where the vector's elements differ in type.
+pub fn storage_ty(plan: &Plan, id: SigId) -> IntTy {
+    plan.group_storage(&plan.group_of(id))
+}
+
+/// `e`, an expression of signal `id`'s storage type holding a value within its bounds, as the
+/// signal's own type (a cast where it is stored in a wider word; exact).
+fn from_storage(plan: &Plan, id: SigId, e: &str) -> String {
+    let ty = plan.format(id).ty;
+    if storage_ty(plan, id) == ty {
+        e.to_string()
+    } else {
+        format!("({}){e}", c_ty(ty))
+    }
+}
+
+/// Whether the elements of `m` share one format (one `_FRAC` macro).
+fn uniform(plan: &Plan, m: &Member) -> bool {
+    let q = plan.format(m.first());
+    m.ids().iter().all(|id| plan.format(*id) == q)
+}
+
 fn upper(plan: &Plan) -> String {
     plan.prog.name.to_uppercase()
 }
@@ -180,31 +206,63 @@ fn header(plan: &Plan) -> String {
         .flat_map(|k| super::members(p, *k))
         .filter(|m| matches!(m, Member::Group { .. }))
         .collect();
-    if let Some(g) = groups.first() {
+    let mixed = groups.iter().find(|m| !uniform(plan, m));
+    if let Some(g) = groups.iter().find(|m| uniform(plan, m)) {
         // The example: the last element of a vector with bounds (an unranged output has none).
         let last = |g: &Member| g.ids()[g.ids().len() - 1];
         let ranged = groups.iter().find(|g| plan.raw_bounds(last(g)).is_some());
         let e = ranged.map(|g| p.sig(last(g)));
+        let which = if mixed.is_some() {
+            "A vector or matrix whose elements share a format has one FRAC"
+        } else {
+            "A vector or matrix has one FRAC (its elements share a format)"
+        };
         let _ = writeln!(
             o,
-            "/* A vector or matrix has one FRAC (its elements share a format) and MIN/MAX per\n\
+            "/* {which} and MIN/MAX per\n\
              \x20* element, named after the element: {up}_{}_FRAC{}. */",
             g.name(p).to_uppercase(),
             e.map(|e| format!(", {up}_{}_MIN for {}", e.name.to_uppercase(), e.label()))
                 .unwrap_or_default()
         );
     }
+    if let Some(m) = mixed {
+        let last = m.ids()[m.ids().len() - 1];
+        let idx: String = p
+            .sig(last)
+            .elem
+            .iter()
+            .flat_map(|e| e.index.iter())
+            .map(|i| format!("_{i}"))
+            .collect();
+        let _ = writeln!(
+            o,
+            "/* A vector whose elements differ in format has a FRAC per element, its indices\n\
+             \x20* after FRAC ({up}_{}_FRAC{idx} for {}), MIN/MAX per element, and each element\n\
+             \x20* stored in its own format in an array of the widest element's type. */",
+            m.name(p).to_uppercase(),
+            p.sig(last).label()
+        );
+    }
     for k in kinds {
         for m in super::members(p, k) {
-            let q = plan.format(m.first());
             let mu = m.name(p).to_uppercase();
-            let _ = writeln!(o, "#define {up}_{mu}_FRAC {}", q.frac);
+            let shared = uniform(plan, &m);
+            if shared {
+                let _ = writeln!(o, "#define {up}_{mu}_FRAC {}", plan.format(m.first()).frac);
+            }
             for id in m.ids() {
-                debug_assert_eq!(
-                    plan.format(id),
-                    q,
-                    "the elements of a vector share a format"
-                );
+                let q = plan.format(id);
+                if !shared {
+                    let idx: String = p
+                        .sig(id)
+                        .elem
+                        .iter()
+                        .flat_map(|e| e.index.iter())
+                        .map(|i| format!("_{i}"))
+                        .collect();
+                    let _ = writeln!(o, "#define {up}_{mu}_FRAC{idx} {}", q.frac);
+                }
                 if let Some((lo, hi)) = plan.raw_bounds(id) {
                     let su = p.sig(id).name.to_uppercase();
                     let _ = writeln!(o, "#define {up}_{su}_MIN {}", c_lit(lo, q.ty));
@@ -233,27 +291,38 @@ fn header(plan: &Plan) -> String {
             let id = m.first();
             let s = p.sig(id);
             let sm = &plan.summary[id.0];
-            // A vector's comment lists each element's range (they may differ).
+            // A vector's comment lists each element's range (they may differ), and each
+            // element's format where those differ.
+            let shared = uniform(plan, m);
             let range = match m {
                 Member::Scalar(_) => crate::text::signal_range_text(plan, id),
                 Member::Group { ids, .. } => ids
                     .iter()
                     .map(|e| {
                         let r = crate::text::signal_range_text(plan, *e);
-                        format!("{} {r}", p.sig(*e).label())
+                        let q = if shared {
+                            String::new()
+                        } else {
+                            format!(" {}", plan.format(*e))
+                        };
+                        format!("{} {r}{q}", p.sig(*e).label())
                     })
                     .collect::<Vec<_>>()
                     .join(", "),
             };
+            let fmt = if shared {
+                format!(", {}", sm.format)
+            } else {
+                String::new()
+            };
             let _ = writeln!(
                 o,
-                "    {} {}; /* {}: {} {}, {} */",
-                c_ty(plan.format(id).ty),
+                "    {} {}; /* {}: {} {}{fmt} */",
+                c_ty(storage_ty(plan, id)),
                 declarator(p, m),
                 super::kind_name(kind),
                 range,
                 s.unit.as_deref().unwrap_or(""),
-                sm.format
             );
         }
         if fields.is_empty() {
@@ -357,12 +426,11 @@ fn body(plan: &Plan, include: bool) -> String {
     }
     let _ = writeln!(o, "void {n}_init({n}_state *self)\n{{");
     for id in &states {
-        let q = plan.format(*id);
         let _ = writeln!(
             o,
             "    self->{} = {};",
             field(p, *id),
-            c_lit(plan.raw_init(*id), q.ty)
+            c_lit(plan.raw_init(*id), storage_ty(plan, *id))
         );
     }
     if states.is_empty() {
@@ -416,7 +484,8 @@ fn body(plan: &Plan, include: bool) -> String {
     let sync = em.sync();
     for id in states.iter().filter(|s| !sync.unnamed.contains(s)) {
         let (f, path) = (ident(&p.sig(*id).name), field(p, *id));
-        let _ = writeln!(o, "    {} {f} = self->{path};", c_ty(plan.format(*id).ty));
+        let v = from_storage(plan, *id, &format!("self->{path}"));
+        let _ = writeln!(o, "    {} {f} = {v};", c_ty(plan.format(*id).ty));
     }
     for id in &outputs {
         let f = ident(&p.sig(*id).name);
@@ -479,27 +548,27 @@ fn eva_entry(plan: &Plan) -> String {
          void {n}_eva_main(void)\n{{\n    {n}_state s;\n    {n}_inputs i;\n    {n}_outputs o;\n"
     );
     for id in &states {
-        let q = plan.format(*id);
+        let ty = storage_ty(plan, *id);
         let (lo, hi) = plan.bounds(*id);
         let _ = writeln!(
             o,
             "    s.{} = ({}){};",
             field(p, *id),
-            c_ty(q.ty),
-            eva_interval(q.ty, lo, hi)
+            c_ty(ty),
+            eva_interval(ty, lo, hi)
         );
     }
     if states.is_empty() {
         let _ = writeln!(o, "    s.unused_ = 0u;");
     }
     for id in &inputs {
-        let q = plan.format(*id);
+        let ty = storage_ty(plan, *id);
         let _ = writeln!(
             o,
             "    i.{} = ({}){};",
             field(p, *id),
-            c_ty(q.ty),
-            eva_interval(q.ty, q.ty.min(), q.ty.max())
+            c_ty(ty),
+            eva_interval(ty, ty.min(), ty.max())
         );
     }
     if inputs.is_empty() {
@@ -536,7 +605,7 @@ fn loop_name(plan: &Plan, k: usize) -> String {
 /// A row's parameter: `int32_t thf[5]`, `int32_t P[5][5]`, or `int32_t *t0` for a row that
 /// is one element.
 fn row_param(plan: &Plan, r: &Row) -> String {
-    let ty = c_ty(plan.format(r.elems[0]).ty);
+    let ty = c_ty(storage_ty(plan, r.elems[0]));
     let g = ident(&r.group);
     if r.dims.len() == 1 {
         return format!("{ty} *{g}");
@@ -610,7 +679,7 @@ fn loop_fn(plan: &Plan, k: usize, r: &Repeat) -> String {
                 "    {} {} = {};",
                 c_ty(plan.format(*s).ty),
                 ident(&p.sig(*s).name),
-                row_elem(plan, row, *s)
+                from_storage(plan, *s, &row_elem(plan, row, *s))
             );
         }
     }
@@ -673,9 +742,9 @@ fn loop_call(em: &Emit, sync: &Sync, k: usize, o: &mut String) {
     for e in &sync.after[k] {
         let _ = writeln!(
             o,
-            "    {} = self->{};",
+            "    {} = {};",
             ident(&p.sig(*e).name),
-            field(p, *e)
+            from_storage(plan, *e, &format!("self->{}", field(p, *e)))
         );
     }
 }
@@ -918,7 +987,17 @@ fn expr(plan: &Plan, id: ValId, pair: Option<ValId>) -> String {
     let t = c_ty(v.ty);
     let n = |x: &ValId| name(plan, *x);
     match &v.op {
-        Op::Input(s) => format!("in->{}", field(&plan.prog, *s)),
+        Op::Input(s) => {
+            let x = format!("in->{}", field(&plan.prog, *s));
+            let st = storage_ty(plan, *s);
+            if st == v.ty {
+                x
+            } else {
+                // Stored in its vector's wider word: saturated to its own type first.
+                let (lo, hi) = (c_lit(v.ty.min(), st), c_lit(v.ty.max(), st));
+                format!("({t})({x} < {lo} ? {lo} : ({x} > {hi} ? {hi} : {x}))")
+            }
+        }
         Op::Low(a, k) => format!("({t})({} & {})", n(a), c_lit((1i128 << k) - 1, v.ty)),
         Op::MulHi(a, b) => format!("qloop_{}_mulhi({}, {})", plan.prog.name, n(a), n(b)),
         Op::Lookup { table, delta, idx }

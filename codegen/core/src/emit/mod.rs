@@ -96,20 +96,35 @@ pub fn member_doc(plan: &Plan, m: &Member) -> String {
     if !d.is_empty() {
         d.push_str("\n\n");
     }
-    d.push_str(&format!(
-        "Format {}{}; ranges:",
-        plan.summary[ids[0].0].format,
-        first
-            .unit
-            .as_deref()
-            .map(|u| format!(", unit {u}"))
-            .unwrap_or_default()
-    ));
+    let unit = first
+        .unit
+        .as_deref()
+        .map(|u| format!(", unit {u}"))
+        .unwrap_or_default();
+    let q = plan.summary[ids[0].0].format;
+    let shared = ids.iter().all(|id| plan.summary[id.0].format == q);
+    if shared {
+        d.push_str(&format!("Format {q}{unit}; ranges:"));
+    } else {
+        // The elements' own formats differ: the API carries them in one format that holds
+        // each exactly.
+        let api = plan
+            .group_api_format(ids)
+            .expect("lowering refuses a vector whose elements no API format carries");
+        d.push_str(&format!(
+            "Carried as {api}{unit} (each element exact in it); ranges and own formats:"
+        ));
+    }
     for id in ids {
         d.push_str(&format!(
-            " `{}` {};",
+            " `{}` {}{};",
             plan.prog.sig(*id).label(),
-            signal_range_text(plan, *id)
+            signal_range_text(plan, *id),
+            if shared {
+                String::new()
+            } else {
+                format!(" {}", plan.summary[id.0].format)
+            }
         ));
     }
     d.pop();
@@ -219,7 +234,7 @@ impl Member {
         }
     }
 
-    /// The first (or only) signal: every element shares its format.
+    /// The first (or only) signal.
     pub fn first(&self) -> SigId {
         match self {
             Member::Scalar(id) => *id,

@@ -34,7 +34,8 @@ use std::collections::{BTreeSet, HashMap, HashSet};
 /// body is cheaper unrolled than called.
 pub const MIN_BODY: usize = 64;
 
-/// Candidate periods tried at one position (the later statements from the same spec line).
+/// Candidate periods tried at one position: the later statements from the same spec line,
+/// and as many of those that follow another line.
 const CANDIDATES: usize = 32;
 
 /// One run of copies of a body.
@@ -373,8 +374,22 @@ pub fn find(plan: &Plan) -> Vec<Repeat> {
     let mut i = 0;
     while i < n {
         let mut best: Option<Repeat> = None;
-        let later = at[&lines[i]].iter().filter(|&&j| j > i).take(CANDIDATES);
-        for &j in later {
+        // The next positions of the line, and the next where it starts again after another
+        // line (a copy's first statement, past the rest of this copy's statements of the
+        // same line: a body line lowered to more than `CANDIDATES` statements).
+        let starts = |k: usize| k == 0 || lines[k - 1] != lines[k];
+        let next = at[&lines[i]].iter().copied().filter(|&j| j > i);
+        let mut later: Vec<usize> = next.clone().take(CANDIDATES).collect();
+        if starts(i) {
+            later.extend(
+                next.filter(|&j| starts(j))
+                    .take(CANDIDATES)
+                    .filter(|j| !later.contains(j))
+                    .collect::<Vec<_>>(),
+            );
+            later.sort_unstable();
+        }
+        for j in later {
             let q = j - i;
             if i + 2 * q > n {
                 break;

@@ -127,6 +127,71 @@ fn path(plan: &Plan, id: SigId) -> TokenStream {
     super::field_path(&plan.prog, id)
 }
 
+/// The format that carries signal `id` across the API: its own, or its vector's
+/// ([`Plan::group_api_format`]) where the vector's elements differ in format.
+fn api_format(plan: &Plan, id: SigId) -> QFormat {
+    plan.group_api_format(&plan.group_of(id))
+        .expect("lowering refuses a vector whose elements no API format carries")
+}
+
+/// The integer type a signal is stored in in `Controller` (its vector's
+/// [`Plan::group_storage`]).
+fn storage_ty(plan: &Plan, id: SigId) -> IntTy {
+    plan.group_storage(&plan.group_of(id))
+}
+
+/// Signal `id`'s raw value from `e`, an expression of its storage type: a cast where its
+/// vector stores it in a wider word (its value is within its own bounds, so the cast is
+/// exact).
+fn from_storage(plan: &Plan, id: SigId, e: TokenStream) -> TokenStream {
+    let ty = plan.format(id).ty;
+    if storage_ty(plan, id) == ty {
+        return e;
+    }
+    let t = int_ty(ty);
+    quote! { (#e as #t) }
+}
+
+/// `v`, a raw value of signal `id`'s own type, as its storage type.
+fn to_storage(plan: &Plan, id: SigId, v: TokenStream) -> TokenStream {
+    let st = storage_ty(plan, id);
+    if st == plan.format(id).ty {
+        return v;
+    }
+    let t = int_ty(st);
+    quote! { (#v as #t) }
+}
+
+/// The API value of signal `id` from its raw value `raw` (exact: the API format has at least
+/// the element's fraction bits and holds its bounds).
+pub(crate) fn to_api(plan: &Plan, id: SigId, raw: TokenStream) -> TokenStream {
+    let (q, a) = (plan.format(id), api_format(plan, id));
+    let at = fixed_ty(a);
+    if q == a {
+        return quote! { <#at>::from_bits(#raw) };
+    }
+    let et = fixed_ty(q);
+    quote! { <#at>::wrapping_from_num(<#et>::from_bits(#raw)) }
+}
+
+/// Signal `id`'s raw value from `v`, a value of its API type: in the element's own format,
+/// fraction bits beyond it dropped (toward −∞) and saturated to its type.
+pub(crate) fn from_api(plan: &Plan, id: SigId, v: TokenStream) -> TokenStream {
+    let q = plan.format(id);
+    if q == api_format(plan, id) {
+        return quote! { #v.to_bits() };
+    }
+    let et = fixed_ty(q);
+    quote! { <#et>::saturating_from_num(#v).to_bits() }
+}
+
+/// Whether the elements of `m` share their format and so cross the API, and sit in
+/// `Controller`, as they are.
+fn uniform(plan: &Plan, m: &Member) -> bool {
+    let q = plan.format(m.first());
+    m.ids().iter().all(|id| plan.format(*id) == q)
+}
+
 /// `name: value` for an API field, the value built per element by `f` (an array literal for
 /// a vector or matrix).
 fn init_field(plan: &Plan, m: &Member, f: impl Fn(SigId) -> TokenStream) -> TokenStream {
@@ -140,7 +205,7 @@ fn init_field(plan: &Plan, m: &Member, f: impl Fn(SigId) -> TokenStream) -> Toke
 fn api_structs(plan: &Plan, sigs: &Sigs) -> TokenStream {
     let field = |m: &Member| {
         let name = format_ident!("{}", m.name(&plan.prog));
-        let ty = super::array_ty(m.dims(), fixed_ty(plan.format(m.first())));
+        let ty = super::array_ty(m.dims(), fixed_ty(api_format(plan, m.first())));
         let d = super::member_doc(plan, m);
         quote! { #[doc = #d] pub #name: #ty, }
     };
@@ -174,7 +239,7 @@ fn controller_struct(plan: &Plan, sigs: &Sigs) -> TokenStream {
         let name = format_ident!("{}", m.name(&plan.prog));
         let ty = super::array_ty(
             m.dims(),
-            int_ty(plan.format(m.first()).ty).into_token_stream(),
+            int_ty(storage_ty(plan, m.first())).into_token_stream(),
         );
         quote! { #name: #ty, }
     });
@@ -197,11 +262,11 @@ fn state_methods(plan: &Plan, sigs: &Sigs) -> TokenStream {
     let raw_inits = sigs
         .state_fields
         .iter()
-        .map(|m| init_field(plan, m, |id| lit(plan.raw_init(id), plan.format(id).ty)));
+        .map(|m| init_field(plan, m, |id| lit(plan.raw_init(id), storage_ty(plan, id))));
     // A vector or matrix converts as a whole (its elements share a format): one `map` per
     // dimension, not a line per element.
     let getters = sigs.state_fields.iter().map(|m| match m {
-        Member::Group { name, dims, ids } => {
+        Member::Group { name, dims, ids } if uniform(plan, m) => {
             let g = format_ident!("{name}");
             let ty = fixed_ty(plan.format(ids[0]));
             let mut f = quote! { <#ty>::from_bits };
@@ -210,10 +275,9 @@ fn state_methods(plan: &Plan, sigs: &Sigs) -> TokenStream {
             }
             quote! { #g: self.#g.map(#f), }
         }
-        Member::Scalar(_) => init_field(plan, m, |id| {
+        _ => init_field(plan, m, |id| {
             let p = path(plan, id);
-            let ty = fixed_ty(plan.format(id));
-            quote! { <#ty>::from_bits(self.#p) }
+            to_api(plan, id, from_storage(plan, id, quote! { self.#p }))
         }),
     });
     // A vector or matrix whose elements share their bounds saturates in one loop over its
@@ -224,11 +288,18 @@ fn state_methods(plan: &Plan, sigs: &Sigs) -> TokenStream {
             let q = plan.format(*id);
             let (lo, hi) = plan.bounds(*id);
             let (lo, hi) = (lit(lo, q.ty), lit(hi, q.ty));
-            quote! { self.#p = ::core::cmp::max(::core::cmp::min(s.#p.to_bits(), #hi), #lo); }
+            let x = from_api(plan, *id, quote! { s.#p });
+            let v = to_storage(
+                plan,
+                *id,
+                quote! { ::core::cmp::max(::core::cmp::min(#x, #hi), #lo) },
+            );
+            quote! { self.#p = #v; }
         };
         match m {
             Member::Group { name, dims, ids }
-                if ids.iter().all(|id| plan.bounds(*id) == plan.bounds(ids[0])) =>
+                if uniform(plan, m)
+                    && ids.iter().all(|id| plan.bounds(*id) == plan.bounds(ids[0])) =>
             {
                 let g = format_ident!("{name}");
                 let q = plan.format(ids[0]);
@@ -279,7 +350,7 @@ fn bits_methods(plan: &Plan, sigs: &Sigs) -> TokenStream {
             let k = inputs.iter().position(|i| *i == id).unwrap_or(0);
             let k = Literal::usize_unsuffixed(k);
             let q = plan.format(id);
-            let (ty, fty) = (int_ty(q.ty), fixed_ty(q));
+            let ty = int_ty(q.ty);
             // Saturated to the type: its limits as i64 (`u64::MAX as i64` would be -1; `check`
             // refuses u64 inputs, so that never happens, but the clamp stays right for any type).
             let hi = if q.ty.max() > i64::MAX as i128 {
@@ -287,17 +358,19 @@ fn bits_methods(plan: &Plan, sigs: &Sigs) -> TokenStream {
             } else {
                 quote! { #ty::MAX as i64 }
             };
-            quote! {
-                <#fty>::from_bits(::core::cmp::max(
-                    ::core::cmp::min(i[#k], #hi),
-                    #ty::MIN as i64,
-                ) as #ty)
-            }
+            to_api(
+                plan,
+                id,
+                quote! {
+                    ::core::cmp::max(::core::cmp::min(i[#k], #hi), #ty::MIN as i64) as #ty
+                },
+            )
         })
     });
     let out_bits = outputs.iter().map(|id| {
         let p = path(plan, *id);
-        quote! { o.#p.to_bits() as i64, }
+        let x = from_api(plan, *id, quote! { o.#p });
+        quote! { #x as i64, }
     });
     let state_bits = states.iter().map(|id| {
         let p = path(plan, *id);
@@ -335,7 +408,8 @@ fn step_method(em: &Emit, sigs: &Sigs) -> TokenStream {
         .map(|id| {
             let (name, p) = (ident(plan, *id), path(plan, *id));
             let ty = int_ty(plan.format(*id).ty);
-            quote! { let mut #name: #ty = self.#p; }
+            let v = from_storage(plan, *id, quote! { self.#p });
+            quote! { let mut #name: #ty = #v; }
         });
     let decl_outputs = sigs.outputs.iter().map(|id| {
         let name = ident(plan, *id);
@@ -362,13 +436,13 @@ fn step_method(em: &Emit, sigs: &Sigs) -> TokenStream {
         .filter(|s| !sync.current.contains(s))
         .map(|id| {
             let (name, p) = (ident(plan, *id), path(plan, *id));
-            quote! { self.#p = #name; }
+            let v = to_storage(plan, *id, quote! { #name });
+            quote! { self.#p = #v; }
         });
     let ret = sigs.out_fields.iter().map(|m| {
         init_field(plan, m, |id| {
             let name = ident(plan, id);
-            let ty = fixed_ty(plan.format(id));
-            quote! { <#ty>::from_bits(#name) }
+            to_api(plan, id, quote! { #name })
         })
     });
     // A step that reads no input still takes them (one signature for every controller).
@@ -419,7 +493,7 @@ fn loop_fn(plan: &Plan, k: usize, r: &Repeat) -> TokenStream {
     let mut params = Vec::new();
     for row in &r.rows {
         let g = format_ident!("{}", row.group);
-        let elem = int_ty(plan.format(row.elems[0]).ty).into_token_stream();
+        let elem = int_ty(storage_ty(plan, row.elems[0])).into_token_stream();
         let ty = super::array_ty(&row.dims[1..], elem);
         params.push(quote! { #g: &mut #ty });
     }
@@ -444,7 +518,7 @@ fn loop_fn(plan: &Plan, k: usize, r: &Repeat) -> TokenStream {
     let loads = r.rows.iter().flat_map(|row| {
         row.elems.iter().map(move |s| {
             let (name, ty) = (ident(plan, *s), int_ty(plan.format(*s).ty));
-            let e = row_elem(plan, row, *s);
+            let e = from_storage(plan, *s, row_elem(plan, row, *s));
             quote! { let mut #name: #ty = #e; }
         })
     });
@@ -452,7 +526,8 @@ fn loop_fn(plan: &Plan, k: usize, r: &Repeat) -> TokenStream {
         row.stored.iter().map(move |s| {
             let name = ident(plan, *s);
             let e = row_elem(plan, row, *s);
-            quote! { #e = #name; }
+            let v = to_storage(plan, *s, quote! { #name });
+            quote! { #e = #v; }
         })
     });
     let body = block(plan, r.body(plan));
@@ -481,11 +556,13 @@ fn loop_call(em: &Emit, sync: &Sync, k: usize) -> TokenStream {
     let r = &em.repeats[k];
     let sync_before = sync.before[k].iter().map(|e| {
         let (name, p) = (ident(plan, *e), path(plan, *e));
-        quote! { self.#p = #name; }
+        let v = to_storage(plan, *e, quote! { #name });
+        quote! { self.#p = #v; }
     });
     let reload = sync.after[k].iter().map(|e| {
         let (name, p) = (ident(plan, *e), path(plan, *e));
-        quote! { #name = self.#p; }
+        let v = from_storage(plan, *e, quote! { self.#p });
+        quote! { #name = #v; }
     });
     let count = Literal::usize_unsuffixed(r.count);
     let mut iter = TokenStream::new();
@@ -635,7 +712,7 @@ fn op_expr(plan: &Plan, id: ValId) -> TokenStream {
     match &v.op {
         Op::Input(s) => {
             let f = path(plan, *s);
-            quote! { inputs.#f.to_bits() }
+            from_api(plan, *s, quote! { inputs.#f })
         }
         Op::Load(s) => {
             let f = format_ident!("{}", plan.prog.sig(*s).name);

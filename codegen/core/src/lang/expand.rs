@@ -404,12 +404,14 @@ impl Expander {
             }
             Some(e) => vec![Some(e.clone()); n],
         };
+        let attrs = element_attrs(&s.attrs, n, &group)?;
         self.shapes.insert(group.clone(), dims.clone());
         let out = ranges
             .into_iter()
             .zip(inits)
+            .zip(attrs)
             .enumerate()
-            .map(|(k, (range, init))| {
+            .map(|(k, ((range, init), attrs))| {
                 let index = unflatten(k, &dims);
                 let name = Ident::new(&Elem::ident(&group, &index), s.name.span());
                 SignalDecl {
@@ -417,6 +419,7 @@ impl Expander {
                     dims: Vec::new(),
                     range,
                     init,
+                    attrs,
                     elem: Some(Elem {
                         group: group.clone(),
                         index,
@@ -1244,6 +1247,96 @@ fn range_leaves(e: &Expr, out: &mut Vec<RangeDecl>) -> Result<()> {
         hi: a.elems[1].clone(),
         span: a.bracket_token.span.join(),
     })));
+    Ok(())
+}
+
+/// The attributes of each of the `n` elements of vector `group` from the vector's: each
+/// element its own where `#[q]` or `#[lsb]` lists one per element, row-major
+/// (`#[q([i16, 12], [i32, 28])]`, `#[lsb([1e-3, 1e-4])]`, nested by rows or flat), and
+/// every other attribute as written.
+fn element_attrs(
+    attrs: &[syn::Attribute],
+    n: usize,
+    group: &str,
+) -> Result<Vec<Vec<syn::Attribute>>> {
+    let mut out = vec![Vec::new(); n];
+    for a in attrs {
+        let (q, lsb) = (a.path().is_ident("q"), a.path().is_ident("lsb"));
+        let per: Option<Vec<proc_macro2::TokenStream>> = if q || lsb {
+            let args = a
+                .parse_args_with(
+                    syn::punctuated::Punctuated::<Expr, syn::Token![,]>::parse_terminated,
+                )
+                .ok();
+            match args {
+                Some(args)
+                    if args
+                        .iter()
+                        .next()
+                        .is_some_and(|e| matches!(e, Expr::Array(_))) =>
+                {
+                    let mut leaves = Vec::new();
+                    for e in &args {
+                        if q {
+                            format_leaves(e, &mut leaves)?;
+                        } else {
+                            value_leaves(e, &mut leaves);
+                        }
+                    }
+                    if leaves.len() != n {
+                        let what = if q { "formats" } else { "LSBs" };
+                        return Err(Diag::new(
+                            a.span(),
+                            format!("{} {what} for the {n} elements of `{group}`", leaves.len()),
+                        )
+                        .help("give one per element, row-major, or one for all"));
+                    }
+                    Some(
+                        leaves
+                            .iter()
+                            .map(|l| match l {
+                                Expr::Array(p) => {
+                                    let items = p.elems.iter();
+                                    quote::quote_spanned!(p.span()=> #(#items),*)
+                                }
+                                other => quote::quote! { #other },
+                            })
+                            .collect(),
+                    )
+                }
+                _ => None,
+            }
+        } else {
+            None
+        };
+        match per {
+            Some(items) => {
+                let path = a.path().clone();
+                for (o, it) in out.iter_mut().zip(items) {
+                    o.push(syn::parse_quote_spanned!(a.span()=> #[#path(#it)]));
+                }
+            }
+            None => out.iter_mut().for_each(|o| o.push(a.clone())),
+        }
+    }
+    Ok(out)
+}
+
+/// The `[TYPE, FRAC]` leaves of a (nested) array of formats, row-major.
+fn format_leaves(e: &Expr, out: &mut Vec<Expr>) -> Result<()> {
+    let Expr::Array(a) = e else {
+        return Err(Diag::new(
+            e.span(),
+            "expected `[TYPE, FRAC]`, e.g. `[i16, 12]`",
+        ));
+    };
+    if a.elems.iter().any(|x| matches!(x, Expr::Array(_))) {
+        for x in &a.elems {
+            format_leaves(x, out)?;
+        }
+        return Ok(());
+    }
+    out.push(e.clone());
     Ok(())
 }
 

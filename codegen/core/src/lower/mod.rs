@@ -158,6 +158,65 @@ impl Plan {
         self.summary[id.0].init.unwrap_or(0)
     }
 
+    /// The elements of the vector or matrix that `id` belongs to, row-major (`[id]` for a
+    /// scalar).
+    pub fn group_of(&self, id: SigId) -> Vec<SigId> {
+        let s = self.prog.sig(id);
+        let Some(e) = &s.elem else {
+            return vec![id];
+        };
+        self.prog
+            .ids_of(s.kind)
+            .filter(|o| {
+                self.prog
+                    .sig(*o)
+                    .elem
+                    .as_ref()
+                    .is_some_and(|f| f.group == e.group)
+            })
+            .collect()
+    }
+
+    /// The integer type of a vector's or matrix's elements `ids` in the generated structs:
+    /// the narrowest that holds every element's type (their own type where they share one).
+    /// Each element keeps its own format in it: the raw value `v · 2^f` of its own `f`.
+    pub fn group_storage(&self, ids: &[SigId]) -> IntTy {
+        let mut t = self.format(ids[0]).ty;
+        for id in ids {
+            t = t.join(self.format(*id).ty);
+        }
+        t
+    }
+
+    /// The `fixed` format that carries every element of the vector or matrix `ids` across the
+    /// Rust API exactly: its elements' format where they share one; else the most fraction
+    /// bits of any element and the narrowest type holding each element's raw bounds at that
+    /// binary point (`None` when no 64-bit type does).
+    pub fn group_api_format(&self, ids: &[SigId]) -> Option<QFormat> {
+        let q0 = self.format(ids[0]);
+        if ids.iter().all(|id| self.format(*id) == q0) {
+            return Some(q0);
+        }
+        let frac = ids.iter().map(|id| self.format(*id).frac).max()?;
+        let signed = ids.iter().any(|id| self.format(*id).ty.signed);
+        let (mut lo, mut hi) = (0i128, 0i128);
+        for id in ids {
+            let q = self.format(*id);
+            if q.frac < 0 {
+                return None;
+            }
+            let d = u32::try_from(frac - q.frac).ok()?;
+            let (a, b) = self.bounds(*id);
+            lo = lo.min(a.checked_mul(1i128.checked_shl(d)?)?);
+            hi = hi.max(b.checked_mul(1i128.checked_shl(d)?)?);
+        }
+        WIDTHS
+            .iter()
+            .map(|&b| IntTy { signed, bits: b })
+            .map(|ty| QFormat { ty, frac })
+            .find(|q| q.ty.holds(lo, hi) && q.fits_fixed_crate())
+    }
+
     /// The storage formats of the inputs, states and outputs.
     pub fn storage_formats(&self) -> impl Iterator<Item = QFormat> + '_ {
         self.prog
@@ -189,15 +248,109 @@ pub fn lower(prog: &Program, target: &Target) -> Result<Plan> {
     lower_formats(prog, target)
 }
 
-/// Lowers `prog` with the formats its declarations give (ranges, the default word, pins).
+/// Lowers `prog` with the formats its declarations give (ranges, the default word, pins):
+/// each element of a vector or matrix its own, from its own range, except where one format
+/// for all of a vector's elements is cheaper on the target.
+///
+/// Elements of different binary points cost alignment shifts wherever they meet (a dot
+/// product's terms, a sum of two of them), which a vector in one format (the hull of its
+/// elements' ranges) does not pay, at some precision. So each vector whose elements' formats
+/// differ is tried in one format, in declaration order, and kept so where the cost model's
+/// estimate ([`cost::estimate`]: cycles, then size) falls.
 fn lower_formats(prog: &Program, target: &Target) -> Result<Plan> {
+    let mut hulled = std::collections::BTreeSet::new();
+    let mut plan = lower_elementwise(prog, target, &hulled)?;
+    let mixed: Vec<String> = mixed_groups(&plan);
+    if !mixed.is_empty() {
+        let mut best = cost::estimate(&plan);
+        for g in mixed {
+            let mut h = hulled.clone();
+            h.insert(g);
+            let Ok(p) = lower_elementwise(prog, target, &h) else {
+                continue;
+            };
+            let c = cost::estimate(&p);
+            if c < best {
+                (best, plan, hulled) = (c, p, h);
+            }
+        }
+    }
+    api_formats(&plan)?;
+    Ok(plan)
+}
+
+/// The declared vectors and matrices of `plan` whose elements' formats differ, in declaration
+/// order, but those with an element pinned or given an LSB.
+fn mixed_groups(plan: &Plan) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for (i, s) in plan.prog.signals.iter().enumerate() {
+        let Some(e) = &s.elem else { continue };
+        if s.kind == SigKind::Local || out.contains(&e.group) {
+            continue;
+        }
+        let ids = plan.group_of(SigId(i));
+        // Elements pinned or with an LSB request keep what they asked for.
+        let pinned = ids.iter().any(|id| {
+            let s = plan.prog.sig(*id);
+            s.pin.is_some() || s.lsb.is_some()
+        });
+        if !pinned && ids.iter().any(|id| plan.format(*id) != plan.format(ids[0])) {
+            out.push(e.group.clone());
+        }
+    }
+    out
+}
+
+/// Refuses a plan whose vectors' elements have formats that no one `fixed` type carries
+/// across the Rust API ([`Plan::group_api_format`]).
+fn api_formats(plan: &Plan) -> Result<()> {
+    for kind in [SigKind::Input, SigKind::State, SigKind::Output] {
+        let mut groups: std::collections::BTreeMap<&str, Vec<SigId>> = Default::default();
+        for id in plan.prog.ids_of(kind) {
+            if let Some(e) = &plan.prog.sig(id).elem {
+                groups.entry(&e.group).or_default().push(id);
+            }
+        }
+        for (name, ids) in groups {
+            if plan.group_api_format(&ids).is_some() {
+                continue;
+            }
+            let (lo, hi) = ids.iter().map(|id| plan.format(*id)).fold(
+                (plan.format(ids[0]), plan.format(ids[0])),
+                |(a, b), q| {
+                    (
+                        if q.frac < a.frac { q } else { a },
+                        if q.frac > b.frac { q } else { b },
+                    )
+                },
+            );
+            return Err(Diag::new(
+                plan.prog.sig(ids[0]).span,
+                format!(
+                    "the elements of `{name}` take formats from {lo} to {hi}, and no `fixed` \
+                     type of at most 64 bits carries all of them across the Rust API"
+                ),
+            )
+            .help("pin one format for the whole vector (`#[q(i32, F)]`), or narrow its ranges"));
+        }
+    }
+    Ok(())
+}
+
+/// Lowers `prog` with each declared signal's own format, but one format for all the
+/// elements of each vector in `hulled` (the hull of their ranges).
+fn lower_elementwise(
+    prog: &Program,
+    target: &Target,
+    hulled: &std::collections::BTreeSet<String>,
+) -> Result<Plan> {
     let mut formats = vec![None; prog.signals.len()];
     for (i, s) in prog.signals.iter().enumerate() {
         if s.kind != SigKind::Local && (s.range.is_some() || s.pin.is_some()) {
             formats[i] = Some(choose_format(s, prog.word)?);
         }
     }
-    unify_groups(prog, &mut formats)?;
+    hull_groups(prog, hulled, &mut formats)?;
     let unranged: Vec<SigId> = prog
         .ids_of(SigKind::Output)
         .filter(|id| formats[id.0].is_none())
@@ -219,7 +372,7 @@ fn lower_formats(prog: &Program, target: &Target) -> Result<Plan> {
     let mut unstable = unranged[0];
     for _ in 0..UNRANGED_PASSES {
         for &id in &unranged {
-            let (lo, hi) = group_hull(prog, id, &ranges);
+            let (lo, hi) = ranges[&id];
             let s = prog.sig(id);
             let q = QFormat::best_for(IntTy::signed(prog.word), lo, hi).ok_or_else(|| {
                 Diag::new(
@@ -261,20 +414,22 @@ fn lower_formats(prog: &Program, target: &Target) -> Result<Plan> {
     .help("declare its range (`output y: [LO, HI];`) so it saturates, or pin a format"))
 }
 
-/// Gives every element of a vector or matrix one format (the API passes it as an array of
-/// one `fixed` type): the format of the hull of the elements' ranges, checked against each
-/// element's own range.
-fn unify_groups(prog: &Program, formats: &mut [Option<QFormat>]) -> Result<()> {
+/// Gives every element of each vector in `hulled` one format: the format of the hull of the
+/// elements' ranges, checked against each element's own range.
+fn hull_groups(
+    prog: &Program,
+    hulled: &std::collections::BTreeSet<String>,
+    formats: &mut [Option<QFormat>],
+) -> Result<()> {
     let mut groups: std::collections::BTreeMap<&str, Vec<usize>> = Default::default();
     for (i, s) in prog.signals.iter().enumerate() {
         if let (Some(e), Some(_)) = (&s.elem, formats[i]) {
-            groups.entry(&e.group).or_default().push(i);
+            if hulled.contains(&e.group) {
+                groups.entry(&e.group).or_default().push(i);
+            }
         }
     }
     for ids in groups.values() {
-        if ids.iter().all(|i| formats[*i] == formats[ids[0]]) {
-            continue;
-        }
         let mut hull = prog.signals[ids[0]].clone();
         for i in ids {
             if let (Some((lo, hi)), Some((a, b))) = (prog.signals[*i].range, hull.range) {
@@ -289,23 +444,6 @@ fn unify_groups(prog: &Program, formats: &mut [Option<QFormat>]) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// The hull of the ranges in `ranges` of `id` and of the other elements of its vector.
-fn group_hull(prog: &Program, id: SigId, ranges: &HashMap<SigId, (f64, f64)>) -> (f64, f64) {
-    let own = ranges[&id];
-    let Some(e) = &prog.sig(id).elem else {
-        return own;
-    };
-    ranges
-        .iter()
-        .filter(|(o, _)| {
-            prog.sig(**o)
-                .elem
-                .as_ref()
-                .is_some_and(|f| f.group == e.group)
-        })
-        .fold(own, |(lo, hi), (_, &(a, b))| (lo.min(a), hi.max(b)))
 }
 
 /// Widens `id`'s hull in `map` to include `[lo, hi]`.

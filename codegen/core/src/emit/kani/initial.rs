@@ -43,7 +43,7 @@ pub(super) fn harness(plan: &Plan, sigs: &Sigs, invs: &Invariants) -> TokenStrea
         #[cfg_attr(kani, kani::solver(kissat))]
         fn initial() {
             let s = Controller::new().states();
-            let pre = states_raw(#(s.#st_paths.to_bits()),*);
+            let pre = states_raw(#(#st_paths),*);
             assert_in_bounds(&pre, "initially");
             #(#init_invs)*
         }

@@ -115,8 +115,8 @@ pub(super) fn items(sigs: &Sigs, invs: &Invariants) -> TokenStream {
             let out = ctl.step(Inputs { #inputs_value });
             let s = ctl.states();
             (
-                states_raw(#(s.#st_paths.to_bits()),*),
-                OutputRaw { #(#out_names: i128::from(out.#out_paths.to_bits()),)* },
+                states_raw(#(#st_paths),*),
+                OutputRaw { #(#out_names: i128::from(#out_paths),)* },
             )
         }
     }

@@ -1,7 +1,7 @@
 //! The controller's signals as the harnesses see them: names, raw storage types, `fixed` types
 //! and raw bounds, read once from the plan.
 
-use super::super::rust::{fixed_ty, int_ty};
+use super::super::rust::{from_api, int_ty, to_api};
 use super::show::int;
 use crate::ir::{SigId, SigKind};
 use crate::lower::Plan;
@@ -25,7 +25,8 @@ pub(super) struct Sigs {
     /// Raw bounds of each state and declared (inward-quantised) range of each input.
     pub st_bounds: Vec<(i128, i128)>,
     pub in_ranges: Vec<(i128, i128)>,
-    /// Field paths in the controller's API (`theta[0]` for a vector's element).
+    /// Each state's raw value read from the `States` value `s` (`s.theta[0].to_bits()`, a
+    /// conversion where its vector's API format is not its own), and each output's from `out`.
     pub st_paths: Vec<TokenStream>,
     pub out_paths: Vec<TokenStream>,
     /// `States { .. }` from the harness arguments `st_*`, and `Inputs { .. }` from `in_*`.
@@ -46,7 +47,6 @@ impl Sigs {
         let name = |id: &SigId| format_ident!("{}", prog.sig(*id).name);
         let arg = |pre: &str, id: &SigId| format_ident!("{pre}_{}", prog.sig(*id).name);
         let storage = |id: &SigId| int_ty(plan.format(*id).ty);
-        let fixed = |id: &SigId| fixed_ty(plan.format(*id));
         let path = |id: &SigId| crate::emit::field_path(prog, *id);
         let value = |k: SigKind, pre: &str| {
             let fields = crate::emit::members(prog, k).into_iter().map(|m| {
@@ -55,8 +55,8 @@ impl Sigs {
                     .ids()
                     .iter()
                     .map(|id| {
-                        let (f, a) = (fixed(id), arg(pre, id));
-                        quote! { <#f>::from_bits(#a) }
+                        let a = arg(pre, id);
+                        to_api(plan, *id, quote! { #a })
                     })
                     .collect();
                 let v = crate::emit::nest(m.dims(), items);
@@ -65,8 +65,20 @@ impl Sigs {
             quote! { #(#fields)* }
         };
         Sigs {
-            st_paths: states.iter().map(path).collect(),
-            out_paths: outputs.iter().map(path).collect(),
+            st_paths: states
+                .iter()
+                .map(|id| {
+                    let p = path(id);
+                    from_api(plan, *id, quote! { s.#p })
+                })
+                .collect(),
+            out_paths: outputs
+                .iter()
+                .map(|id| {
+                    let p = path(id);
+                    from_api(plan, *id, quote! { out.#p })
+                })
+                .collect(),
             states_value: value(SigKind::State, "st"),
             inputs_value: value(SigKind::Input, "in"),
             in_names: inputs.iter().map(name).collect(),
