@@ -71,7 +71,7 @@ pub struct BudgetUse {
     pub default_err: f64,
     /// Its one-step error bound in the chosen plan.
     pub err: f64,
-    /// It refused a narrower choice in the last pass.
+    /// It refused a narrower choice in the last pass that the cost model estimated cheaper.
     pub binds: bool,
 }
 
@@ -222,13 +222,13 @@ fn verdict(prog: &Program, base: &Plan, plan: &Plan, c: Cost, best: Cost) -> Ver
         })
         .map(|(i, _)| SigId(i))
         .collect();
-    if !over.is_empty() {
-        return Verdict::Over(over);
-    }
-    if c < best {
-        Verdict::Keep
-    } else {
+    // The estimate first: a budget binds only where it refused a choice that was cheaper.
+    if c >= best {
         Verdict::Dearer
+    } else if !over.is_empty() {
+        Verdict::Over(over)
+    } else {
+        Verdict::Keep
     }
 }
 
