@@ -181,7 +181,7 @@ pub fn warning_free(plan: &Plan, cc: &Path, dir: &Path) -> PathBuf {
 pub fn fixed_driver(plan: &Plan) -> String {
     let n = &plan.prog.name;
     // The struct field's type (a vector's widest element's, where its elements differ).
-    let ty = |id: &SigId| qloop::emit::c::c_ty(qloop::emit::c::storage_ty(plan, *id));
+    let ty = |id: &SigId| qloop::emit::c::c_ty(plan.storage_ty(*id));
     let mut d = format!(
         "#include \"{n}.h\"\n#include <stdio.h>\nint main(void) {{\n    {n}_state s;\n    \
          {n}_inputs in;\n    {n}_outputs out;\n    long long v;\n    char op;\n    \

@@ -135,27 +135,25 @@ pub fn c_lit(v: i128, ty: IntTy) -> String {
     }
 }
 
-/// The integer type signal `id` is stored in in the structs: its own, or its vector's
-/// ([`Plan::group_storage`]) where the vector's elements differ in type.
-pub fn storage_ty(plan: &Plan, id: SigId) -> IntTy {
-    plan.group_storage(&plan.group_of(id))
-}
-
 /// `e`, an expression of signal `id`'s storage type holding a value within its bounds, as the
 /// signal's own type (a cast where it is stored in a wider word; exact).
 fn from_storage(plan: &Plan, id: SigId, e: &str) -> String {
     let ty = plan.format(id).ty;
-    if storage_ty(plan, id) == ty {
+    if plan.storage_ty(id) == ty {
         e.to_string()
     } else {
         format!("({}){e}", c_ty(ty))
     }
 }
 
-/// Whether the elements of `m` share one format (one `_FRAC` macro).
-fn uniform(plan: &Plan, m: &Member) -> bool {
-    let q = plan.format(m.first());
-    m.ids().iter().all(|id| plan.format(*id) == q)
+/// `_1_0` for element `P[1][0]`: the indices of element `id`, for its `_FRAC` macro.
+fn index_suffix(prog: &Program, id: SigId) -> String {
+    prog.sig(id)
+        .elem
+        .iter()
+        .flat_map(|e| e.index.iter())
+        .map(|i| format!("_{i}"))
+        .collect()
 }
 
 fn upper(plan: &Plan) -> String {
@@ -206,8 +204,8 @@ fn header(plan: &Plan) -> String {
         .flat_map(|k| super::members(p, *k))
         .filter(|m| matches!(m, Member::Group { .. }))
         .collect();
-    let mixed = groups.iter().find(|m| !uniform(plan, m));
-    if let Some(g) = groups.iter().find(|m| uniform(plan, m)) {
+    let mixed = groups.iter().find(|m| !m.uniform(plan));
+    if let Some(g) = groups.iter().find(|m| m.uniform(plan)) {
         // The example: the last element of a vector with bounds (an unranged output has none).
         let last = |g: &Member| g.ids()[g.ids().len() - 1];
         let ranged = groups.iter().find(|g| plan.raw_bounds(last(g)).is_some());
@@ -228,13 +226,7 @@ fn header(plan: &Plan) -> String {
     }
     if let Some(m) = mixed {
         let last = m.ids()[m.ids().len() - 1];
-        let idx: String = p
-            .sig(last)
-            .elem
-            .iter()
-            .flat_map(|e| e.index.iter())
-            .map(|i| format!("_{i}"))
-            .collect();
+        let idx = index_suffix(p, last);
         let _ = writeln!(
             o,
             "/* A vector whose elements differ in format has a FRAC per element, its indices\n\
@@ -247,20 +239,14 @@ fn header(plan: &Plan) -> String {
     for k in kinds {
         for m in super::members(p, k) {
             let mu = m.name(p).to_uppercase();
-            let shared = uniform(plan, &m);
+            let shared = m.uniform(plan);
             if shared {
                 let _ = writeln!(o, "#define {up}_{mu}_FRAC {}", plan.format(m.first()).frac);
             }
             for id in m.ids() {
                 let q = plan.format(id);
                 if !shared {
-                    let idx: String = p
-                        .sig(id)
-                        .elem
-                        .iter()
-                        .flat_map(|e| e.index.iter())
-                        .map(|i| format!("_{i}"))
-                        .collect();
+                    let idx = index_suffix(p, id);
                     let _ = writeln!(o, "#define {up}_{mu}_FRAC{idx} {}", q.frac);
                 }
                 if let Some((lo, hi)) = plan.raw_bounds(id) {
@@ -293,7 +279,7 @@ fn header(plan: &Plan) -> String {
             let sm = &plan.summary[id.0];
             // A vector's comment lists each element's range (they may differ), and each
             // element's format where those differ.
-            let shared = uniform(plan, m);
+            let shared = m.uniform(plan);
             let range = match m {
                 Member::Scalar(_) => crate::text::signal_range_text(plan, id),
                 Member::Group { ids, .. } => ids
@@ -318,7 +304,7 @@ fn header(plan: &Plan) -> String {
             let _ = writeln!(
                 o,
                 "    {} {}; /* {}: {} {}{fmt} */",
-                c_ty(storage_ty(plan, id)),
+                c_ty(plan.storage_ty(id)),
                 declarator(p, m),
                 super::kind_name(kind),
                 range,
@@ -430,7 +416,7 @@ fn body(plan: &Plan, include: bool) -> String {
             o,
             "    self->{} = {};",
             field(p, *id),
-            c_lit(plan.raw_init(*id), storage_ty(plan, *id))
+            c_lit(plan.raw_init(*id), plan.storage_ty(*id))
         );
     }
     if states.is_empty() {
@@ -548,7 +534,7 @@ fn eva_entry(plan: &Plan) -> String {
          void {n}_eva_main(void)\n{{\n    {n}_state s;\n    {n}_inputs i;\n    {n}_outputs o;\n"
     );
     for id in &states {
-        let ty = storage_ty(plan, *id);
+        let ty = plan.storage_ty(*id);
         let (lo, hi) = plan.bounds(*id);
         let _ = writeln!(
             o,
@@ -562,7 +548,7 @@ fn eva_entry(plan: &Plan) -> String {
         let _ = writeln!(o, "    s.unused_ = 0u;");
     }
     for id in &inputs {
-        let ty = storage_ty(plan, *id);
+        let ty = plan.storage_ty(*id);
         let _ = writeln!(
             o,
             "    i.{} = ({}){};",
@@ -605,7 +591,7 @@ fn loop_name(plan: &Plan, k: usize) -> String {
 /// A row's parameter: `int32_t thf[5]`, `int32_t P[5][5]`, or `int32_t *t0` for a row that
 /// is one element.
 fn row_param(plan: &Plan, r: &Row) -> String {
-    let ty = c_ty(storage_ty(plan, r.elems[0]));
+    let ty = c_ty(plan.storage_ty(r.elems[0]));
     let g = ident(&r.group);
     if r.dims.len() == 1 {
         return format!("{ty} *{g}");
@@ -989,7 +975,7 @@ fn expr(plan: &Plan, id: ValId, pair: Option<ValId>) -> String {
     match &v.op {
         Op::Input(s) => {
             let x = format!("in->{}", field(&plan.prog, *s));
-            let st = storage_ty(plan, *s);
+            let st = plan.storage_ty(*s);
             if st == v.ty {
                 x
             } else {

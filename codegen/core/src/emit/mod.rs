@@ -101,16 +101,13 @@ pub fn member_doc(plan: &Plan, m: &Member) -> String {
         .as_deref()
         .map(|u| format!(", unit {u}"))
         .unwrap_or_default();
-    let q = plan.summary[ids[0].0].format;
-    let shared = ids.iter().all(|id| plan.summary[id.0].format == q);
+    let shared = plan.shares_format(ids);
     if shared {
-        d.push_str(&format!("Format {q}{unit}; ranges:"));
+        d.push_str(&format!("Format {}{unit}; ranges:", plan.format(ids[0])));
     } else {
         // The elements' own formats differ: the API carries them in one format that holds
         // each exactly.
-        let api = plan
-            .group_api_format(ids)
-            .expect("lowering refuses a vector whose elements no API format carries");
+        let api = plan.api_format(ids[0]);
         d.push_str(&format!(
             "Carried as {api}{unit} (each element exact in it); ranges and own formats:"
         ));
@@ -232,6 +229,12 @@ impl Member {
             Member::Scalar(id) => vec![*id],
             Member::Group { ids, .. } => ids.clone(),
         }
+    }
+
+    /// Whether the field's elements share one format (so it crosses the APIs, and sits in
+    /// the structs, as they are; a scalar always does).
+    pub fn uniform(&self, plan: &Plan) -> bool {
+        plan.shares_format(&self.ids())
     }
 
     /// The first (or only) signal.

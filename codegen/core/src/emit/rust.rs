@@ -127,25 +127,12 @@ fn path(plan: &Plan, id: SigId) -> TokenStream {
     super::field_path(&plan.prog, id)
 }
 
-/// The format that carries signal `id` across the API: its own, or its vector's
-/// ([`Plan::group_api_format`]) where the vector's elements differ in format.
-fn api_format(plan: &Plan, id: SigId) -> QFormat {
-    plan.group_api_format(&plan.group_of(id))
-        .expect("lowering refuses a vector whose elements no API format carries")
-}
-
-/// The integer type a signal is stored in in `Controller` (its vector's
-/// [`Plan::group_storage`]).
-fn storage_ty(plan: &Plan, id: SigId) -> IntTy {
-    plan.group_storage(&plan.group_of(id))
-}
-
 /// Signal `id`'s raw value from `e`, an expression of its storage type: a cast where its
 /// vector stores it in a wider word (its value is within its own bounds, so the cast is
 /// exact).
 fn from_storage(plan: &Plan, id: SigId, e: TokenStream) -> TokenStream {
     let ty = plan.format(id).ty;
-    if storage_ty(plan, id) == ty {
+    if plan.storage_ty(id) == ty {
         return e;
     }
     let t = int_ty(ty);
@@ -154,7 +141,7 @@ fn from_storage(plan: &Plan, id: SigId, e: TokenStream) -> TokenStream {
 
 /// `v`, a raw value of signal `id`'s own type, as its storage type.
 fn to_storage(plan: &Plan, id: SigId, v: TokenStream) -> TokenStream {
-    let st = storage_ty(plan, id);
+    let st = plan.storage_ty(id);
     if st == plan.format(id).ty {
         return v;
     }
@@ -165,7 +152,7 @@ fn to_storage(plan: &Plan, id: SigId, v: TokenStream) -> TokenStream {
 /// The API value of signal `id` from its raw value `raw` (exact: the API format has at least
 /// the element's fraction bits and holds its bounds).
 pub(crate) fn to_api(plan: &Plan, id: SigId, raw: TokenStream) -> TokenStream {
-    let (q, a) = (plan.format(id), api_format(plan, id));
+    let (q, a) = (plan.format(id), plan.api_format(id));
     let at = fixed_ty(a);
     if q == a {
         return quote! { <#at>::from_bits(#raw) };
@@ -178,18 +165,11 @@ pub(crate) fn to_api(plan: &Plan, id: SigId, raw: TokenStream) -> TokenStream {
 /// fraction bits beyond it dropped (toward −∞) and saturated to its type.
 pub(crate) fn from_api(plan: &Plan, id: SigId, v: TokenStream) -> TokenStream {
     let q = plan.format(id);
-    if q == api_format(plan, id) {
+    if q == plan.api_format(id) {
         return quote! { #v.to_bits() };
     }
     let et = fixed_ty(q);
     quote! { <#et>::saturating_from_num(#v).to_bits() }
-}
-
-/// Whether the elements of `m` share their format and so cross the API, and sit in
-/// `Controller`, as they are.
-fn uniform(plan: &Plan, m: &Member) -> bool {
-    let q = plan.format(m.first());
-    m.ids().iter().all(|id| plan.format(*id) == q)
 }
 
 /// `name: value` for an API field, the value built per element by `f` (an array literal for
@@ -205,7 +185,7 @@ fn init_field(plan: &Plan, m: &Member, f: impl Fn(SigId) -> TokenStream) -> Toke
 fn api_structs(plan: &Plan, sigs: &Sigs) -> TokenStream {
     let field = |m: &Member| {
         let name = format_ident!("{}", m.name(&plan.prog));
-        let ty = super::array_ty(m.dims(), fixed_ty(api_format(plan, m.first())));
+        let ty = super::array_ty(m.dims(), fixed_ty(plan.api_format(m.first())));
         let d = super::member_doc(plan, m);
         quote! { #[doc = #d] pub #name: #ty, }
     };
@@ -239,7 +219,7 @@ fn controller_struct(plan: &Plan, sigs: &Sigs) -> TokenStream {
         let name = format_ident!("{}", m.name(&plan.prog));
         let ty = super::array_ty(
             m.dims(),
-            int_ty(storage_ty(plan, m.first())).into_token_stream(),
+            int_ty(plan.storage_ty(m.first())).into_token_stream(),
         );
         quote! { #name: #ty, }
     });
@@ -262,11 +242,11 @@ fn state_methods(plan: &Plan, sigs: &Sigs) -> TokenStream {
     let raw_inits = sigs
         .state_fields
         .iter()
-        .map(|m| init_field(plan, m, |id| lit(plan.raw_init(id), storage_ty(plan, id))));
+        .map(|m| init_field(plan, m, |id| lit(plan.raw_init(id), plan.storage_ty(id))));
     // A vector or matrix converts as a whole (its elements share a format): one `map` per
     // dimension, not a line per element.
     let getters = sigs.state_fields.iter().map(|m| match m {
-        Member::Group { name, dims, ids } if uniform(plan, m) => {
+        Member::Group { name, dims, ids } if m.uniform(plan) => {
             let g = format_ident!("{name}");
             let ty = fixed_ty(plan.format(ids[0]));
             let mut f = quote! { <#ty>::from_bits };
@@ -298,7 +278,7 @@ fn state_methods(plan: &Plan, sigs: &Sigs) -> TokenStream {
         };
         match m {
             Member::Group { name, dims, ids }
-                if uniform(plan, m)
+                if m.uniform(plan)
                     && ids.iter().all(|id| plan.bounds(*id) == plan.bounds(ids[0])) =>
             {
                 let g = format_ident!("{name}");
@@ -493,7 +473,7 @@ fn loop_fn(plan: &Plan, k: usize, r: &Repeat) -> TokenStream {
     let mut params = Vec::new();
     for row in &r.rows {
         let g = format_ident!("{}", row.group);
-        let elem = int_ty(storage_ty(plan, row.elems[0])).into_token_stream();
+        let elem = int_ty(plan.storage_ty(row.elems[0])).into_token_stream();
         let ty = super::array_ty(&row.dims[1..], elem);
         params.push(quote! { #g: &mut #ty });
     }

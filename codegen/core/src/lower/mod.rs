@@ -177,6 +177,24 @@ impl Plan {
             .collect()
     }
 
+    /// The integer type signal `id` is stored in in the generated structs: its own, or its
+    /// vector's ([`Plan::group_storage`]).
+    pub fn storage_ty(&self, id: SigId) -> IntTy {
+        self.group_storage(&self.group_of(id))
+    }
+
+    /// The format that carries signal `id` across the Rust API: its own, or its vector's
+    /// ([`Plan::group_api_format`]) where the vector's elements differ in format.
+    pub fn api_format(&self, id: SigId) -> QFormat {
+        self.group_api_format(&self.group_of(id))
+            .expect("lowering refuses a vector whose elements no API format carries")
+    }
+
+    /// Whether the elements `ids` of a vector share one format.
+    pub fn shares_format(&self, ids: &[SigId]) -> bool {
+        ids.iter().all(|id| self.format(*id) == self.format(ids[0]))
+    }
+
     /// The integer type of a vector's or matrix's elements `ids` in the generated structs:
     /// the narrowest that holds every element's type (their own type where they share one).
     /// Each element keeps its own format in it: the raw value `v · 2^f` of its own `f`.
@@ -193,9 +211,8 @@ impl Plan {
     /// bits of any element and the narrowest type holding each element's raw bounds at that
     /// binary point (`None` when no 64-bit type does).
     pub fn group_api_format(&self, ids: &[SigId]) -> Option<QFormat> {
-        let q0 = self.format(ids[0]);
-        if ids.iter().all(|id| self.format(*id) == q0) {
-            return Some(q0);
+        if self.shares_format(ids) {
+            return Some(self.format(ids[0]));
         }
         let frac = ids.iter().map(|id| self.format(*id).frac).max()?;
         let signed = ids.iter().any(|id| self.format(*id).ty.signed);
@@ -294,7 +311,7 @@ fn mixed_groups(plan: &Plan) -> Vec<String> {
             let s = plan.prog.sig(*id);
             s.pin.is_some() || s.lsb.is_some()
         });
-        if !pinned && ids.iter().any(|id| plan.format(*id) != plan.format(ids[0])) {
+        if !pinned && !plan.shares_format(&ids) {
             out.push(e.group.clone());
         }
     }
@@ -302,7 +319,8 @@ fn mixed_groups(plan: &Plan) -> Vec<String> {
 }
 
 /// Refuses a plan whose vectors' elements have formats that no one `fixed` type carries
-/// across the Rust API ([`Plan::group_api_format`]).
+/// across the Rust API ([`Plan::group_api_format`]), or no one integer type of at most 64
+/// bits stores ([`Plan::group_storage`]).
 fn api_formats(plan: &Plan) -> Result<()> {
     for kind in [SigKind::Input, SigKind::State, SigKind::Output] {
         let mut groups: std::collections::BTreeMap<&str, Vec<SigId>> = Default::default();
@@ -312,7 +330,7 @@ fn api_formats(plan: &Plan) -> Result<()> {
             }
         }
         for (name, ids) in groups {
-            if plan.group_api_format(&ids).is_some() {
+            if plan.group_api_format(&ids).is_some() && plan.group_storage(&ids).bits <= 64 {
                 continue;
             }
             let (lo, hi) = ids.iter().map(|id| plan.format(*id)).fold(
@@ -328,7 +346,8 @@ fn api_formats(plan: &Plan) -> Result<()> {
                 plan.prog.sig(ids[0]).span,
                 format!(
                     "the elements of `{name}` take formats from {lo} to {hi}, and no `fixed` \
-                     type of at most 64 bits carries all of them across the Rust API"
+                     type of at most 64 bits carries all of them across the Rust API, or no \
+                     integer type of at most 64 bits holds them in the structs"
                 ),
             )
             .help("pin one format for the whole vector (`#[q(i32, F)]`), or narrow its ranges"));

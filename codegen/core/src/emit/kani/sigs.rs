@@ -64,21 +64,18 @@ impl Sigs {
             });
             quote! { #(#fields)* }
         };
+        // Each signal's raw value read from the API value `from` (`s`, `out`).
+        let reads = |ids: &[SigId], from: TokenStream| -> Vec<TokenStream> {
+            ids.iter()
+                .map(|id| {
+                    let p = path(id);
+                    from_api(plan, *id, quote! { #from.#p })
+                })
+                .collect()
+        };
         Sigs {
-            st_paths: states
-                .iter()
-                .map(|id| {
-                    let p = path(id);
-                    from_api(plan, *id, quote! { s.#p })
-                })
-                .collect(),
-            out_paths: outputs
-                .iter()
-                .map(|id| {
-                    let p = path(id);
-                    from_api(plan, *id, quote! { out.#p })
-                })
-                .collect(),
+            st_paths: reads(&states, quote! { s }),
+            out_paths: reads(&outputs, quote! { out }),
             states_value: value(SigKind::State, "st"),
             inputs_value: value(SigKind::Input, "in"),
             in_names: inputs.iter().map(name).collect(),
