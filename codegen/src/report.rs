@@ -323,8 +323,15 @@ pub fn check_report(plan: &Plan, file: &str) -> String {
                 m.adders, m.shifts, m.costs.0, m.costs.1
             )
         };
+        // A product rounded into 32 bits by `const_split`: what the code computes.
+        let split = match m.split {
+            Some((q, c, n)) => format!(
+                "; where rounded by {n} bit(s), as {q}·x + round({c}·x / 2^{n}) in 32 bits (exact)"
+            ),
+            None => String::new(),
+        };
         let line = format!(
-            "  x * {what} = x * {}·2^{} ({}): {how}",
+            "  x * {what} = x * {}·2^{} ({}): {how}{split}",
             m.m,
             -m.k,
             quantisation(m.constant, m.m, m.k)

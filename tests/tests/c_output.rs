@@ -268,10 +268,6 @@ fn avr_c_in_simavr_matches_the_interpreter() {
             .skip(2)
             .filter_map(|call| call.split(", ").nth(1)?.split('u').next()?.parse().ok())
             .collect();
-        assert!(
-            shifts.iter().any(|k| k % 8 != 0),
-            "{stem}: no sar64 read of an unaligned shift in the AVR C"
-        );
         paths[0] |= shifts.iter().any(|k| *k < 32 && k % 8 != 0);
         paths[1] |= shifts.iter().any(|k| *k > 32 && k % 8 != 0);
         let cases = trajectory_and_states(plan, &mut Rng(0x5a64_0000_0000_0400), 400, 0);
@@ -281,7 +277,7 @@ fn avr_c_in_simavr_matches_the_interpreter() {
     }
     assert_eq!(
         paths, [true; 2],
-        "the helper's paths (k < 32, k > 32) are run"
+        "the helper's paths (k < 32, k > 32) are run: some plan must read an unaligned shift by each"
     );
 }
 

@@ -22,6 +22,7 @@ mod loops;
 mod macro_dependencies;
 mod macro_matches_cli;
 mod multimodel;
+mod narrow_words;
 mod object_code;
 mod paper_gac;
 mod paper_grinding;

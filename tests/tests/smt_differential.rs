@@ -332,3 +332,18 @@ fn per_element_formats_encode_as_the_interpreter_computes() {
         exact_differential_of("elements", &p, Sort::Int, Solver::Z3);
     }
 }
+
+/// Constant products rounded in 32 bits and comparisons at the coarser operand's binary point
+/// (tests/narrow_words.qloop): the encodings of the ATmega328P's and RV32I's plans match the
+/// interpreter.
+#[test]
+fn narrow_word_forms_encode_as_the_interpreter_computes() {
+    let src = include_str!("narrow_words.qloop");
+    for t in ["atmega328p", "rv32i"] {
+        let target = qloop::targets::by_name(t).expect("built-in target");
+        let p = qloop::compile_str(src, &target).expect("narrow_words.qloop compiles");
+        differential_of("narrow_words", &p);
+        exact_differential_of("narrow_words", &p, Sort::BitVec, Solver::Z3);
+        exact_differential_of("narrow_words", &p, Sort::Int, Solver::Z3);
+    }
+}

@@ -41,15 +41,85 @@ impl Lowerer<'_> {
             }
             Cond::Cmp(op, a, b) => {
                 let (a, b) = self.pair(a, b, 0, out)?;
-                let (a, b, _, _) = self.align(a, b, Bin::Hull, self.here, out)?;
-                let band = super::err_bound::add(self.v(a).err, self.v(b).err);
-                (Op::Cmp(*op, a, b), band)
+                if let Some(cmp) = self.coarse_compare(*op, a, b, out) {
+                    // Exact: the operands' own bounds.
+                    (cmp, super::err_bound::add(self.v(a).err, self.v(b).err))
+                } else {
+                    // The aligned operands' bounds: alignment rounds where exact needs > 64 bits.
+                    let (a, b, _, _) = self.align(a, b, Bin::Hull, self.here, out)?;
+                    let band = super::err_bound::add(self.v(a).err, self.v(b).err);
+                    (Op::Cmp(*op, a, b), band)
+                }
             }
             Cond::And(a, b) => (Op::And(self.cond(a, out)?, self.cond(b, out)?), 0.0),
             Cond::Or(a, b) => (Op::Or(self.cond(a, out)?, self.cond(b, out)?), 0.0),
             Cond::Not(a) => (Op::Not(self.cond(a, out)?), 0.0),
         };
         Ok(self.boolean(op, err, out))
+    }
+
+    /// `a OP b` for operands of at most 32 bits at different binary points whose exact
+    /// alignment needs a wider word, on a target whose word is narrower than 64 bits: decided
+    /// at the coarser operand's binary point, exactly. With `c` the coarser operand, `f` the
+    /// finer by `k` bits and `y = f/2^k`, for an integer `c`: `c > y ⟺ c > ⌊y⌋`,
+    /// `c ≤ y ⟺ c ≤ ⌊y⌋`, `c ≥ y ⟺ c ≥ ⌈y⌉` and `c < y ⟺ c < ⌈y⌉`, with
+    /// `⌈y⌉ = ⌊(f + 2^k − 1)/2^k⌋` (a floor is an arithmetic right shift). The same decision
+    /// on every raw value, so the same band. `None` for `==` and `!=`, and where the
+    /// alignment fits 32 bits or the shifted operand does not.
+    fn coarse_compare(
+        &mut self,
+        op: CmpOp,
+        a: ValId,
+        b: ValId,
+        out: &mut Vec<LStmt>,
+    ) -> Option<Op> {
+        let (va, vb) = (self.v(a).clone(), self.v(b).clone());
+        let fits = |v: &super::lir::Val| v.ty.bits <= 32 && super::rounding::fits_i32(v.lo, v.hi);
+        if self.target.word_bits >= 64
+            || matches!(op, CmpOp::Eq | CmpOp::Ne)
+            || va.frac == vb.frac
+            || !fits(&va)
+            || !fits(&vb)
+        {
+            return None;
+        }
+        let (c, f, op) = if va.frac < vb.frac {
+            (a, b, op)
+        } else {
+            (b, a, op.mirror())
+        };
+        let (vc, vf) = (self.v(c).clone(), self.v(f).clone());
+        let k = (vf.frac - vc.frac) as u32;
+        // Where the coarser operand aligned exactly fits 32 bits, the plain comparison does.
+        let aligned = super::shl_exact(vc.lo, k as i32).zip(super::shl_exact(vc.hi, k as i32));
+        if k >= 31 || aligned.is_some_and(|(lo, hi)| super::rounding::fits_i32(lo, hi)) {
+            return None;
+        }
+        let i32t = IntTy::signed(32);
+        let mut src = self.cast(f, i32t, out);
+        let (mut lo, mut hi) = (vf.lo, vf.hi);
+        if matches!(op, CmpOp::Ge | CmpOp::Lt) {
+            // ⌈y⌉ = ⌊(f + 2^k − 1)/2^k⌋.
+            let up = (1i128 << k) - 1;
+            if !super::rounding::fits_i32(lo, hi + up) {
+                return None;
+            }
+            let u = self.push(NewVal::constant(up, i32t, vf.frac, 0.0), out);
+            src = self.push(
+                NewVal::exact(Op::Add(src, u), i32t, vf.frac, (lo + up, hi + up)),
+                out,
+            );
+            (lo, hi) = (lo + up, hi + up);
+        }
+        let t = self.push(
+            NewVal::exact(Op::Shr(src, k), i32t, vc.frac, (lo >> k, hi >> k)),
+            out,
+        );
+        let (tl, th) = (lo >> k, hi >> k);
+        let ty = IntTy::signed_for(tl.min(vc.lo), th.max(vc.hi), self.target.min_work_bits())?;
+        let c = self.cast(c, ty, out);
+        let t = self.cast(t, ty, out);
+        Some(Op::Cmp(op, c, t))
     }
 
     pub(super) fn boolean(&mut self, op: Op, err: f64, out: &mut Vec<LStmt>) -> ValId {

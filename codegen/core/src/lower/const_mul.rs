@@ -10,6 +10,7 @@
 //! `x · m · 2^-k`.
 
 use super::lir::{LStmt, Op, Val, ValId};
+use super::rounding::fits_i32;
 use super::{err_bound, shift_add, shl_exact, Bin, Lowerer, MulNote, NewVal};
 use crate::diag::{Diag, Result};
 use crate::qformat::{pow2, IntTy, QFormat};
@@ -160,13 +161,143 @@ impl Lowerer<'_> {
             hi,
             err: f.err,
         };
-        if hw {
+        let note = self.mults.len() - 1;
+        let p = if hw {
             let cm = self.push(NewVal::constant(f.m, ty, 0, 0.0), out);
-            return Ok(self.push(product(Op::Mul(xw, cm)), out));
+            self.push(product(Op::Mul(xw, cm)), out)
+        } else {
+            let r = self.emit_network(xw, &xv, f.m, &net, ty, out);
+            // Re-label the binary point: the network computed x·m; the value is x·m·2^-k.
+            self.push_fit(product(Op::Cast(r)), out)
+        };
+        self.const_products
+            .insert(p, super::ConstProduct { x, m: f.m, note });
+        Ok(p)
+    }
+
+    /// `round(x·m, n)` of an exact constant product that needs a word wider than 32 bits,
+    /// computed in 32 bits: with `m = q·2^n + c` (`c` of `m`'s sign, `|c| < 2^n`),
+    /// `⌊(x·m + h)/2^n⌋ = q·x + ⌊(c·x + h)/2^n⌋` for the program's rounding (`h` = 2^(n−1)
+    /// for nearest, 0 for floor), since `q·x·2^n` is a multiple of 2^n: exact, the same
+    /// integer, the same error bound. `q·x` and `c·x` have `m`'s sign in `x`, so interval
+    /// arithmetic gives the sum the exact interval of the rounded product. On a target whose
+    /// word is narrower than 64 bits, where `x`, `q·x`, `c·x + h` and the sum fit `i32`, and
+    /// where the target's cost model prices the split below the wide product and its
+    /// rounding (1.125·x rounded by 3 bits is `x + ⌊(x + 4)/8⌋`, not a 64-bit multiply, add
+    /// and shift: on the AVR about 25 cycles against 200). `None` otherwise.
+    pub(super) fn const_split(
+        &mut self,
+        v: ValId,
+        n: u32,
+        span: Span,
+        out: &mut Vec<LStmt>,
+    ) -> Result<Option<ValId>> {
+        let Some(&super::ConstProduct { x, m, note }) = self.const_products.get(&v) else {
+            return Ok(None);
+        };
+        let pv = self.v(v).clone();
+        if pv.ty.bits <= 32 || self.target.word_bits >= 64 || !(1..62).contains(&n) {
+            return Ok(None);
         }
-        let r = self.emit_network(xw, &xv, f.m, &net, ty, out);
-        // Re-label the binary point: the network computed x·m; the value is x·m·2^-k.
-        Ok(self.push_fit(product(Op::Cast(r)), out))
+        if !fits_i32(self.v(x).lo, self.v(x).hi) {
+            return Ok(None);
+        }
+        let Some(x) = self.narrow32(x, 4, out) else {
+            return Ok(None);
+        };
+        let xv = self.v(x).clone();
+        let low = (1i128 << n) - 1;
+        let (q, c) = if m >= 0 {
+            (m >> n, m & low)
+        } else {
+            (-((-m) >> n), -((-m) & low))
+        };
+        let h = match self.prog.rounding {
+            crate::qformat::Rounding::Nearest => 1i128 << (n - 1),
+            crate::qformat::Rounding::Floor => 0,
+        };
+        let range = |k: i128| {
+            let (a, b) = (xv.lo * k, xv.hi * k);
+            (a.min(b), a.max(b))
+        };
+        let ((ql, qh), (cl, ch)) = (range(q), range(c));
+        let (rl, rh) = self.rounded(cl, ch, n);
+        if q == 0 || !fits_i32(ql, qh) || !fits_i32(cl, ch + h) || !fits_i32(ql + rl, qh + rh) {
+            return Ok(None);
+        }
+        // The cost model: the wide product as chosen, its rounding's add and shift, against
+        // the two 32-bit products, the rounding and the sum.
+        let t = self.target;
+        let xbits = xv.ty.bits.min(32);
+        let int_cost = |k: i128, bits: u32| match k.unsigned_abs() {
+            0 | 1 => 0,
+            _ => {
+                let net = shift_add::best(k);
+                let kb = (129 - k.unsigned_abs().leading_zeros()).max(t.min_work_bits());
+                t.shift_add_cost(&net, bits, &|_, _| false)
+                    .min(t.const_mul_cost(bits, xbits, kb.next_power_of_two()))
+            }
+        };
+        let round_cost =
+            |bits: u32| t.add_cost(bits) * u32::from(h != 0) + t.shift_cost(bits, n, false);
+        let wide = int_cost(m, pv.ty.bits) + round_cost(pv.ty.bits);
+        let narrow = int_cost(q, 32) + int_cost(c, 32) + round_cost(32) + t.add_cost(32);
+        if narrow >= wide {
+            return Ok(None);
+        }
+        let i32t = IntTy::signed(32);
+        let xw = self.cast(x, i32t, out);
+        let qx = self.int_product(xw, &xv, q, out);
+        let cx = self.int_product(xw, &xv, c, out);
+        // c·x at the product's binary point, rounded by n; q·x at the result's.
+        let cxp = self.push(NewVal::exact(Op::Cast(cx), i32t, pv.frac, (cl, ch)), out);
+        let rc = self.round(cxp, n, span, out)?;
+        let rc = self.cast(rc, i32t, out);
+        let frac = pv.frac - n as i32;
+        let qxr = self.push(NewVal::exact(Op::Cast(qx), i32t, frac, (ql, qh)), out);
+        let (al, ah) = (self.v(rc).lo, self.v(rc).hi);
+        let added = match self.prog.rounding {
+            crate::qformat::Rounding::Floor => (pow2(n as i32) - 1.0) * pow2(-pv.frac),
+            crate::qformat::Rounding::Nearest => pow2(n as i32 - 1) * pow2(-pv.frac),
+        };
+        let r = self.push(
+            NewVal {
+                op: Op::Add(qxr, rc),
+                ty: i32t,
+                frac,
+                lo: ql + al,
+                hi: qh + ah,
+                err: err_bound::add(pv.err, added),
+            },
+            out,
+        );
+        self.splits.push(super::Split {
+            note,
+            val: r,
+            qcn: (q, c, n),
+        });
+        Ok(Some(r))
+    }
+
+    /// `x · k` exactly in `x`'s 32-bit word (`xw`, with `xv`'s interval): a shift-add network,
+    /// or the multiplier where the target's cost model prices it lower.
+    fn int_product(&mut self, xw: ValId, xv: &Val, k: i128, out: &mut Vec<LStmt>) -> ValId {
+        let i32t = IntTy::signed(32);
+        let net = shift_add::best(k);
+        let kb = (129 - k.unsigned_abs().leading_zeros()).max(self.target.min_work_bits());
+        let sa = self.target.shift_add_cost(&net, 32, &|_, _| false);
+        let hw = self
+            .target
+            .const_mul_cost(32, xv.ty.bits.min(32), kb.next_power_of_two());
+        if net.adders() > 0 && (hw < sa || self.target.force_multiply) {
+            let (a, b) = (xv.lo * k, xv.hi * k);
+            let cm = self.push(NewVal::constant(k, i32t, 0, 0.0), out);
+            return self.push(
+                NewVal::exact(Op::Mul(xw, cm), i32t, xv.frac, (a.min(b), a.max(b))),
+                out,
+            );
+        }
+        self.emit_network(xw, xv, k, &net, i32t, out)
     }
 
     /// Rounds `x` as [`Self::factor_rounding`] says, then quantises `c` on its grid
@@ -282,6 +413,7 @@ impl Lowerer<'_> {
             shifts: net.shifts(),
             hw_mul: hw,
             costs: (sa_cost, hw_cost),
+            split: None,
         });
         hw
     }

@@ -23,6 +23,14 @@ pub fn eliminate(vals: Vec<Val>, mut body: Vec<LStmt>) -> (Vec<Val>, Vec<LStmt>)
     }
 }
 
+/// Which values a store or a branch uses, directly or through other values (before
+/// [`eliminate`] renumbers them).
+pub fn live(vals: &[Val], body: &[LStmt]) -> Vec<bool> {
+    let mut live = vec![false; vals.len()];
+    mark(vals, body, &mut live);
+    live
+}
+
 /// Marks what the statements use, walking backwards (a value is defined before its uses).
 fn mark(vals: &[Val], body: &[LStmt], live: &mut [bool]) {
     for s in body.iter().rev() {

@@ -98,6 +98,10 @@ pub struct MulNote {
     pub hw_mul: bool,
     /// Cost of shift-add and of the multiplier in the target's model.
     pub costs: (u32, u32),
+    /// Where the product is rounded by `n` bits into a 32-bit word although it needs a wider
+    /// one: `(q, c, n)` with `m = q·2^n + c`, computed as `q·x + round(c·x / 2^n)` in 32 bits
+    /// (exact; `lower::const_mul`).
+    pub split: Option<(i128, i128, u32)>,
 }
 
 impl Plan {
@@ -629,6 +633,20 @@ struct Lowerer<'a> {
     /// computes it once. Cleared at every statement, so that a value is reused only in the
     /// statement list that defines it, and the copies of a `for` body stay alike.
     cse: HashMap<String, ValId>,
+    /// The exact products of a value and an integer constant ([`Lowerer::mul_const`]): the
+    /// rounded factor, the constant and its [`MulNote`], for [`Lowerer::const_split`].
+    const_products: HashMap<ValId, ConstProduct>,
+    /// The constant products rounded in 32 bits so far.
+    splits: Vec<Split>,
+}
+
+/// A product `x · m` computed exactly ([`Lowerer::mul_const`]): `x`, `m`, and the index of
+/// its [`MulNote`] in [`Lowerer::mults`].
+#[derive(Clone, Copy, Debug)]
+struct ConstProduct {
+    x: ValId,
+    m: i128,
+    note: usize,
 }
 
 /// The key of a value for [`Lowerer::push`]'s reuse within a statement: its operation,
@@ -671,6 +689,17 @@ struct Lowered {
     received: HashMap<SigId, (f64, f64)>,
     mults: Vec<MulNote>,
     tables: Vec<table::LTable>,
+    splits: Vec<Split>,
+}
+
+/// A constant product rounded in 32 bits ([`Lowerer::const_split`]): its [`MulNote`], the
+/// value computed, and `(q, c, n)`. The note says so only where the value is used (an
+/// attempt that a surrounding rewrite dropped leaves a dead value).
+#[derive(Clone, Copy, Debug)]
+struct Split {
+    note: usize,
+    val: ValId,
+    qcn: (i128, i128, u32),
 }
 
 impl Lowered {
@@ -722,6 +751,13 @@ impl Lowered {
                 }
             })
             .collect();
+        let live = dce::live(&self.vals, &self.body);
+        let mut mults = self.mults;
+        for sp in &self.splits {
+            if live[sp.val.0] {
+                mults[sp.note].split = Some(sp.qcn);
+            }
+        }
         let (vals, body) = dce::eliminate(self.vals, self.body);
         Plan {
             prog: self.prog,
@@ -729,7 +765,7 @@ impl Lowered {
             vals,
             body,
             summary,
-            mults: self.mults,
+            mults,
             tables: self.tables,
             tuning: None,
         }
@@ -754,6 +790,8 @@ impl<'a> Lowerer<'a> {
             decisions: 0,
             here: Span::call_site(),
             cse: HashMap::new(),
+            const_products: HashMap::new(),
+            splits: Vec::new(),
         }
     }
 
@@ -817,6 +855,7 @@ impl<'a> Lowerer<'a> {
             received: self.received,
             mults: self.mults,
             tables: self.tables,
+            splits: self.splits,
         })
     }
 

@@ -65,6 +65,12 @@ impl Lowerer<'_> {
         if let Some(r) = self.round_then_clamp(v, n, span, out)? {
             return Ok(r);
         }
+        if let Some(r) = self.const_split(v, n, span, out)? {
+            return Ok(r);
+        }
+        if let Some(r) = self.const_sum_split(v, n, span, out)? {
+            return Ok(r);
+        }
         if let Some(r) = self.high_product(v, n, span, out)? {
             return Ok(r);
         }
@@ -128,6 +134,92 @@ impl Lowerer<'_> {
             },
             out,
         ))
+    }
+
+    /// `round(K ± x·m, n)` (or `x·m − K`) for a constant `K` on the result's grid (a
+    /// multiple of 2^n) and an exact constant product that [`Self::const_split`] rounds in
+    /// 32 bits: `K/2^n ± round(x·m, n)`, exact (`K` moves out of the rounding unchanged), where
+    /// the sum fits `i32`; `1 + 1.125·x` is `1 + x + round(x/8)`. `None` otherwise.
+    fn const_sum_split(
+        &mut self,
+        v: ValId,
+        n: u32,
+        span: Span,
+        out: &mut Vec<LStmt>,
+    ) -> Result<Option<ValId>> {
+        let x = self.v(v).clone();
+        if x.name.is_some() || x.claimed || x.boolean || x.ty.bits <= 32 {
+            return Ok(None);
+        }
+        let strip = |me: &Self, mut id: ValId| {
+            while let Op::Cast(a) = me.v(id).op {
+                if me.v(a).frac != me.v(id).frac || me.v(a).ty.bits > me.v(id).ty.bits {
+                    break;
+                }
+                id = a;
+            }
+            id
+        };
+        let konst = |me: &Self, id: ValId| match me.v(strip(me, id)).op {
+            Op::Const(c) if c % (1i128 << n) == 0 => Some(c >> n),
+            _ => None,
+        };
+        let product = |me: &Self, id: ValId| {
+            let id = strip(me, id);
+            me.const_products.contains_key(&id).then_some(id)
+        };
+        // (K/2^n, the product, whether the product is subtracted)
+        let (k, p, minus) = match x.op {
+            Op::Add(a, b) => match (
+                konst(self, a),
+                product(self, b),
+                konst(self, b),
+                product(self, a),
+            ) {
+                (Some(k), Some(p), ..) | (_, _, Some(k), Some(p)) => (k, p, false),
+                _ => return Ok(None),
+            },
+            Op::Sub(a, b) => match (product(self, a), konst(self, b)) {
+                (Some(p), Some(k)) => (-k, p, false),
+                _ => match (konst(self, a), product(self, b)) {
+                    (Some(k), Some(p)) => (k, p, true),
+                    _ => return Ok(None),
+                },
+            },
+            _ => return Ok(None),
+        };
+        let Some(r) = self.const_split(p, n, span, out)? else {
+            return Ok(None);
+        };
+        let rv = self.v(r).clone();
+        let (lo, hi) = if minus {
+            (k - rv.hi, k - rv.lo)
+        } else {
+            (k + rv.lo, k + rv.hi)
+        };
+        if !fits_i32(lo, hi) || !fits_i32(k, k) {
+            return Ok(None);
+        }
+        let i32t = IntTy::signed(32);
+        let kv = self.push(NewVal::constant(k, i32t, rv.frac, 0.0), out);
+        let r = self.cast(r, i32t, out);
+        let op = if minus {
+            Op::Sub(kv, r)
+        } else {
+            Op::Add(kv, r)
+        };
+        let added = self.rounding_added(x.frac, n);
+        Ok(Some(self.push(
+            NewVal {
+                op,
+                ty: i32t,
+                frac: rv.frac,
+                lo,
+                hi,
+                err: err_bound::add(x.err, added),
+            },
+            out,
+        )))
     }
 
     /// Nearest rounding of a full-width 64-bit value, where `x + 2^(n-1)` would overflow:
@@ -227,10 +319,6 @@ impl Lowerer<'_> {
         if x.name.is_some() || x.claimed || x.boolean {
             return Ok(None);
         }
-        let konst = |me: &Self, id: ValId| match me.v(id).op {
-            Op::Const(c) => Some(c),
-            _ => None,
-        };
         // Through the widening casts `clamp` puts before each side.
         let strip = |me: &Self, mut id: ValId| {
             while let Op::Cast(a) = me.v(id).op {
@@ -242,6 +330,11 @@ impl Lowerer<'_> {
                 id = a;
             }
             id
+        };
+        // A bound, also a narrower constant widened to the clamp's word.
+        let konst = |me: &Self, id: ValId| match me.v(strip(me, id)).op {
+            Op::Const(c) => Some(c),
+            _ => None,
         };
         let (mut lo, mut hi, mut cur) = (None, None, v);
         for _ in 0..2 {
@@ -519,7 +612,12 @@ impl Lowerer<'_> {
     /// its widening casts, or (to `depth` levels) its sum, difference, negation or exact left
     /// shift recomputed in `i32` from operands that are such values. The same integer: each
     /// operation is exact, and every interval is inside `i32`. `None` otherwise.
-    fn narrow32(&mut self, id: ValId, depth: u32, out: &mut Vec<LStmt>) -> Option<ValId> {
+    pub(super) fn narrow32(
+        &mut self,
+        id: ValId,
+        depth: u32,
+        out: &mut Vec<LStmt>,
+    ) -> Option<ValId> {
         let w = self.v(id).clone();
         if w.boolean || !fits_i32(w.lo, w.hi) {
             return None;
@@ -620,7 +718,9 @@ impl Lowerer<'_> {
         }
         let mut ts = Vec::new();
         terms(self, v, false, &mut ts);
+        // A constant's product is split on its own ([`Self::const_split`]).
         let product = |me: &Self, t: ValId| match me.v(t).op {
+            _ if me.const_products.contains_key(&t) => false,
             Op::Mul(..) => true,
             Op::Shl(s, _) => matches!(me.v(s).op, Op::Mul(..)) && me.is_rescale(t),
             _ => false,
@@ -664,11 +764,20 @@ impl Lowerer<'_> {
         let mut rounded = Vec::with_capacity(ts.len());
         for &(neg, t) in &ts {
             let r = match self.v(t).op {
+                _ if self.const_products.contains_key(&t) => {
+                    match self.const_split(t, m, span, out)? {
+                        Some(r) => r,
+                        None => return Ok(None),
+                    }
+                }
                 _ if product(self, t) => match self.high_product(t, m, span, out)? {
                     Some(r) => r,
                     None => return Ok(None),
                 },
                 Op::Const(_) => self.round(t, m, span, out)?,
+                // A clamped term (a saturated update): rounded, then clamped, in 32 bits where
+                // [`Self::round_then_clamp`] can (else the term does not fit, below).
+                Op::Min(..) | Op::Max(..) => self.round(t, m, span, out)?,
                 // A shifted term of a constant's shift-add network, `x·2^k` with the binary
                 // point unchanged: `x` re-expressed with `frac + k` fraction bits has the raw
                 // value of `x·2^k` with `frac` (a cast that moves the binary point), kept
