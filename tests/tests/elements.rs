@@ -268,22 +268,13 @@ fn fixed_c_is_free_of_runtime_errors_by_frama_c_eva() {
 /// counterexamples are spurious, the CLI's replay finds; it times out on the exact terms).
 #[test]
 fn proves_with_both_solvers() {
-    use qloop::prove::solver::{Answer, Config, Solver};
+    use qloop::prove::solver::{Answer, Solver};
     if !Solver::ALL.iter().all(|s| s.available()) {
         eprintln!("z3 or cvc5 missing: skipped");
         return;
     }
     for target in ["host", "atmega328p"] {
-        let p = plan_for(target);
-        let cfg = Config {
-            solvers: Solver::ALL.to_vec(),
-            timeout_ms: 5_000,
-            cache_dir: None,
-            jobs: 2,
-            deadline: None,
-        };
-        let report = qloop::prove::prove(&p, &cfg, &mut |_| {});
-        assert!(report.proved(), "{}", report.table(&p));
+        let report = qloop_tests::assert_proved(&plan_for(target), 5_000, &[]);
         for o in &report.outcomes {
             let by = |s: Solver| {
                 o.runs

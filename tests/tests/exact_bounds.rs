@@ -178,6 +178,42 @@ fn printed_bounds_hold_for_short_products_on_the_avr() {
     printed_bounds_hold_for("short_product", src, &avr);
 }
 
+/// A random spec (acceptance seed 1796322904772293782) where a constant product rounded in 32
+/// bits (`lower::const_mul::const_split`) would take `1449·x` through the network term
+/// `23·x << 6`, which leaves `i32` although `1449·x` does not: the split is refused there, and
+/// every value stays inside its proved interval.
+#[test]
+fn printed_bounds_hold_where_a_split_network_term_would_leave_32_bits() {
+    let src = r#"controller split_network {
+    period 0.01 "s";
+    rounding floor;
+    word 16;
+    
+    input a: [(-140.4), 178.6];
+    
+    input b: [(-2.0), 2.0];
+    
+    state s: [(-9.557), 15.98] = 3.2115;
+    
+    state t: [(-106.1), 164.5] = 29.200000000000003;
+    state w[3][2]: [-4.0, 4.0] = 0.0;
+    output y;
+    step {
+        let l0 = (0.708 * (a + b));
+        s = ((t - b) + s);
+        if ((-5.309e-7) + 3.62396240234375e-5) == min(b, (-0.1)) && 72.97 == t { t = a; } else { t -= l0 * (-3.476); }
+        for j in 0..3 {
+            let u = ((b - a) - (b + w[j][0]));
+            w[j][0] = clamp(min((a * b), (s * w[j][1])), -4.0, 4.0);
+            w[j][1] = clamp(u * 0.5 + t, -4.0, 4.0);
+            w[j][0] = clamp(w[j][0] - ((0.343 * s) + (w[j][1] + a)), -4.0, 4.0);
+        }
+        y = (if max(t, a) > (if a > s { a } else { s }) { ((-3.315) * s) } else { b }) + l0 + w[0][0];
+    }
+}"#;
+    printed_bounds_hold_for("split_network", src, &Target::default());
+}
+
 #[test]
 #[ignore = "acceptance tier (docs/book/src/internals/tests.md)"]
 fn printed_bounds_hold_against_exact_arithmetic_on_10000_random_specs() {

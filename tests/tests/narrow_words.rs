@@ -177,33 +177,15 @@ fn avr_c_in_simavr_matches_the_interpreter() {
 
 #[test]
 fn proves_with_both_solvers() {
-    use qloop::prove::solver::{Answer, Config, Solver};
+    use qloop::prove::solver::Solver;
     if !Solver::ALL.iter().all(|s| s.available()) {
         eprintln!("z3 or cvc5 missing: skipped");
         return;
     }
     for target in ["atmega328p", "rv32i"] {
-        let p = plan_for(target, false);
-        let cfg = Config {
-            solvers: Solver::ALL.to_vec(),
-            timeout_ms: 5_000,
-            cache_dir: None,
-            jobs: 2,
-            deadline: None,
-        };
-        let report = qloop::prove::prove(&p, &cfg, &mut |_| {});
-        assert!(report.proved(), "{}", report.table(&p));
-        for o in &report.outcomes {
-            for s in Solver::ALL {
-                assert!(
-                    o.runs
-                        .iter()
-                        .any(|r| r.solver == s && r.answer == Answer::Unsat),
-                    "{target}: {}: {:?}",
-                    o.ob.name,
-                    o.runs
-                );
-            }
+        let r = qloop_tests::assert_proved(&plan_for(target, false), 5_000, &[]);
+        for o in &r.outcomes {
+            qloop_tests::assert_proved_by_each_solver(&r, &o.ob.name);
         }
     }
 }

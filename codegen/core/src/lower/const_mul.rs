@@ -199,9 +199,6 @@ impl Lowerer<'_> {
         if pv.ty.bits <= 32 || self.target.word_bits >= 64 || !(1..62).contains(&n) {
             return Ok(None);
         }
-        if !fits_i32(self.v(x).lo, self.v(x).hi) {
-            return Ok(None);
-        }
         let Some(x) = self.narrow32(x, 4, out) else {
             return Ok(None);
         };
@@ -222,20 +219,32 @@ impl Lowerer<'_> {
         };
         let ((ql, qh), (cl, ch)) = (range(q), range(c));
         let (rl, rh) = self.rounded(cl, ch, n);
-        if q == 0 || !fits_i32(ql, qh) || !fits_i32(cl, ch + h) || !fits_i32(ql + rl, qh + rh) {
+        // Every partial term of either network in 32 bits too (`23·x << 6` on the way to
+        // `1449·x` can leave `i32` where `1449·x` does not).
+        let xm = xv.lo.abs().max(xv.hi.abs());
+        let terms_fit = |k: i128| {
+            let t = xm * largest_term(k, &shift_add::best(k));
+            fits_i32(-t, t)
+        };
+        if q == 0
+            || !fits_i32(ql, qh)
+            || !fits_i32(cl, ch + h)
+            || !fits_i32(ql + rl, qh + rh)
+            || !terms_fit(q)
+            || !terms_fit(c)
+        {
             return Ok(None);
         }
         // The cost model: the wide product as chosen, its rounding's add and shift, against
         // the two 32-bit products, the rounding and the sum.
         let t = self.target;
         let xbits = xv.ty.bits.min(32);
-        let int_cost = |k: i128, bits: u32| match k.unsigned_abs() {
-            0 | 1 => 0,
-            _ => {
-                let net = shift_add::best(k);
-                let kb = (129 - k.unsigned_abs().leading_zeros()).max(t.min_work_bits());
-                t.shift_add_cost(&net, bits, &|_, _| false)
-                    .min(t.const_mul_cost(bits, xbits, kb.next_power_of_two()))
+        let int_cost = |k: i128, bits: u32| {
+            let (net, sa, hw) = self.int_product_costs(k, bits, xbits);
+            if net.adders() == 0 {
+                sa
+            } else {
+                sa.min(hw)
             }
         };
         let round_cost =
@@ -256,10 +265,7 @@ impl Lowerer<'_> {
         let frac = pv.frac - n as i32;
         let qxr = self.push(NewVal::exact(Op::Cast(qx), i32t, frac, (ql, qh)), out);
         let (al, ah) = (self.v(rc).lo, self.v(rc).hi);
-        let added = match self.prog.rounding {
-            crate::qformat::Rounding::Floor => (pow2(n as i32) - 1.0) * pow2(-pv.frac),
-            crate::qformat::Rounding::Nearest => pow2(n as i32 - 1) * pow2(-pv.frac),
-        };
+        let added = self.rounding_added(pv.frac, n);
         let r = self.push(
             NewVal {
                 op: Op::Add(qxr, rc),
@@ -283,12 +289,7 @@ impl Lowerer<'_> {
     /// or the multiplier where the target's cost model prices it lower.
     fn int_product(&mut self, xw: ValId, xv: &Val, k: i128, out: &mut Vec<LStmt>) -> ValId {
         let i32t = IntTy::signed(32);
-        let net = shift_add::best(k);
-        let kb = (129 - k.unsigned_abs().leading_zeros()).max(self.target.min_work_bits());
-        let sa = self.target.shift_add_cost(&net, 32, &|_, _| false);
-        let hw = self
-            .target
-            .const_mul_cost(32, xv.ty.bits.min(32), kb.next_power_of_two());
+        let (net, sa, hw) = self.int_product_costs(k, 32, xv.ty.bits.min(32));
         if net.adders() > 0 && (hw < sa || self.target.force_multiply) {
             let (a, b) = (xv.lo * k, xv.hi * k);
             let cm = self.push(NewVal::constant(k, i32t, 0, 0.0), out);
@@ -298,6 +299,24 @@ impl Lowerer<'_> {
             );
         }
         self.emit_network(xw, xv, k, &net, i32t, out)
+    }
+
+    /// `x · k` by a `bits`-wide shift-add network (`x` of `x_bits`): the network, its cost and
+    /// the multiplier's in the target's model (as [`Self::choose_multiplier`] prices them,
+    /// without the rounded-up shift split).
+    fn int_product_costs(
+        &self,
+        k: i128,
+        bits: u32,
+        x_bits: u32,
+    ) -> (shift_add::ShiftAddPlan, u32, u32) {
+        let net = shift_add::best(k);
+        let kb = (129 - k.unsigned_abs().leading_zeros()).max(self.target.min_work_bits());
+        let sa = self.target.shift_add_cost(&net, bits, &|_, _| false);
+        let hw = self
+            .target
+            .const_mul_cost(bits, x_bits, kb.next_power_of_two());
+        (net, sa, hw)
     }
 
     /// Rounds `x` as [`Self::factor_rounding`] says, then quantises `c` on its grid
@@ -347,19 +366,8 @@ impl Lowerer<'_> {
         claim: Option<(f64, f64)>,
         span: Span,
     ) -> Result<IntTy> {
-        let coefs: Vec<i128> = net.step_coefficients();
         // Largest magnitude any partial term reaches, for the working type.
-        let mut maxc = f.m.abs();
-        for (s, st) in net.steps.iter().enumerate() {
-            let coef_of = |o: shift_add::Operand| match o {
-                shift_add::Operand::X => 1i128,
-                shift_add::Operand::Step(j) => coefs[j],
-            };
-            maxc = maxc
-                .max(coef_of(st.a).abs() << st.a_shift)
-                .max(coef_of(st.b).abs() << st.b_shift)
-                .max(coefs[s].abs());
-        }
+        let maxc = largest_term(f.m, net);
         let xm = xv.lo.abs().max(xv.hi.abs());
         match claim {
             Some((lo, hi)) => {
@@ -535,6 +543,25 @@ impl Lowerer<'_> {
         }
         Err(too_wide_product(c, span))
     }
+}
+
+/// The largest coefficient `|c|` of any partial term `c·x` of the network computing `m·x`
+/// (the shifted operands of each step, each step's value, and `m`): the working type must hold
+/// `x` times it.
+fn largest_term(m: i128, net: &shift_add::ShiftAddPlan) -> i128 {
+    let coefs: Vec<i128> = net.step_coefficients();
+    let coef_of = |o: shift_add::Operand| match o {
+        shift_add::Operand::X => 1i128,
+        shift_add::Operand::Step(j) => coefs[j],
+    };
+    let mut maxc = m.abs();
+    for (s, st) in net.steps.iter().enumerate() {
+        maxc = maxc
+            .max(coef_of(st.a).abs() << st.a_shift)
+            .max(coef_of(st.b).abs() << st.b_shift)
+            .max(coefs[s].abs());
+    }
+    maxc
 }
 
 /// Quantises a non-zero constant factor `c` for a product with a value of `frac` fraction bits

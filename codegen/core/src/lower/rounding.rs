@@ -151,15 +151,7 @@ impl Lowerer<'_> {
         if x.name.is_some() || x.claimed || x.boolean || x.ty.bits <= 32 {
             return Ok(None);
         }
-        let strip = |me: &Self, mut id: ValId| {
-            while let Op::Cast(a) = me.v(id).op {
-                if me.v(a).frac != me.v(id).frac || me.v(a).ty.bits > me.v(id).ty.bits {
-                    break;
-                }
-                id = a;
-            }
-            id
-        };
+        let strip = |me: &Self, id: ValId| me.under_widenings(id);
         let konst = |me: &Self, id: ValId| match me.v(strip(me, id)).op {
             Op::Const(c) if c % (1i128 << n) == 0 => Some(c >> n),
             _ => None,
@@ -292,7 +284,7 @@ impl Lowerer<'_> {
 
     /// The most one rounding of `n` bits adds to a value with `frac` fraction bits: floor drops
     /// up to 2^n − 1 source LSBs, nearest half of 2^n.
-    fn rounding_added(&self, frac: i32, n: u32) -> f64 {
+    pub(super) fn rounding_added(&self, frac: i32, n: u32) -> f64 {
         let lsb_src = pow2(-frac);
         match self.prog.rounding {
             Rounding::Floor => (pow2(n as i32) - 1.0) * lsb_src,
@@ -320,17 +312,7 @@ impl Lowerer<'_> {
             return Ok(None);
         }
         // Through the widening casts `clamp` puts before each side.
-        let strip = |me: &Self, mut id: ValId| {
-            while let Op::Cast(a) = me.v(id).op {
-                let w = me.v(id);
-                let src = me.v(a);
-                if w.name.is_some() || w.claimed || src.ty.bits > w.ty.bits || src.frac != w.frac {
-                    break;
-                }
-                id = a;
-            }
-            id
-        };
+        let strip = |me: &Self, id: ValId| me.under_widenings(id);
         // A bound, also a narrower constant widened to the clamp's word.
         let konst = |me: &Self, id: ValId| match me.v(strip(me, id)).op {
             Op::Const(c) => Some(c),
@@ -586,6 +568,19 @@ impl Lowerer<'_> {
             out,
         );
         Ok(Some(self.round(r, n - 16, span, out)?))
+    }
+
+    /// The value under `id`'s unnamed widening casts that keep the binary point: the same
+    /// integer, in a narrower or equal word.
+    fn under_widenings(&self, mut id: ValId) -> ValId {
+        while let Op::Cast(a) = self.v(id).op {
+            let (w, src) = (self.v(id), self.v(a));
+            if w.name.is_some() || w.claimed || src.ty.bits > w.ty.bits || src.frac != w.frac {
+                break;
+            }
+            id = a;
+        }
+        id
     }
 
     /// Whether `id` is `s << k` that only moves the binary point (`s`'s value re-expressed
